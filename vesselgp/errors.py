@@ -1,0 +1,55 @@
+"""The error hierarchy of vesselgp.
+
+Every problem with user input raises a subclass of :class:`VesselError`, which
+is a :class:`ValueError`. Messages say what is wrong and what to do about it.
+"""
+from __future__ import annotations
+
+
+class VesselError(ValueError):
+    """Base class of every input error raised by vesselgp."""
+
+
+class MeshReadError(VesselError):
+    """A mesh file is missing, empty, unreadable or of an unknown format."""
+
+
+class MeshWriteError(VesselError):
+    """An output file could not be written (nothing was left half-written)."""
+
+
+class InvalidMeshError(VesselError):
+    """Vertex or face arrays are malformed (shape, dtype, NaN, bad indices, degenerate)."""
+
+
+class NotTubularError(VesselError):
+    """The mesh does not look like a vessel: no two ends, too short, a closed blob."""
+
+
+class EndsError(VesselError):
+    """The vessel ends are ambiguous or wrongly chosen (branches, bad indices)."""
+
+
+class MismatchError(VesselError):
+    """Rest and deformed meshes (or other paired inputs) do not correspond."""
+
+
+class FrameError(VesselError):
+    """A frame, direction or curve is degenerate (zero tangent, parallel normal)."""
+
+
+class OptimizationError(VesselError):
+    """The minimum-torsion search failed (NLopt error or non-finite energies)."""
+
+
+__all__ = [
+    "VesselError",
+    "MeshReadError",
+    "MeshWriteError",
+    "InvalidMeshError",
+    "NotTubularError",
+    "EndsError",
+    "MismatchError",
+    "FrameError",
+    "OptimizationError",
+]
