@@ -1,10 +1,18 @@
-"""vesselgp: torsion of blood vessels for surgical simulation and planning."""
+"""vesselgp: torsion of blood vessels for surgical simulation and planning.
+
+Stages: ``io`` (read/write meshes), ``mesh`` (cleanup, vessel ends), ``curves``
+(RMF, Frenet), ``fit`` (generalized cylinder, paper Eq. 1-5), ``torsion``
+(paper Eq. 6-8), ``deform`` and ``join`` (minimum-torsion joining),
+``synthetic`` (vessels with known ground truth), ``viz`` and ``cli``.
+"""
 from __future__ import annotations
 
 import logging as _logging
 
 from .errors import *  # noqa: F401,F403
 from .curves import rotation_minimizing_frames, curve_tangents, frenet  # noqa: F401
+
+# Each stage adds its public names on its own line below.
 
 _logging.getLogger(__name__).addHandler(_logging.NullHandler())
 
