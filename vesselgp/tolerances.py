@@ -36,16 +36,19 @@ GC_NODE_SPACING = 0.5
 GC_MIN_NODES = 12
 GC_MAX_NODES = 600
 #: Generalized-cylinder fit: stop when the axis moves less than this times the mean radius.
-GC_CONVERGENCE = 1e-5
+GC_CONVERGENCE = 1e-4
 #: Generalized-cylinder fit: maximum number of outer iterations.
 GC_MAX_ITER = 30
 #: Regularisation weights, dimensionless (Eq. 2 lambda and Eq. 4 mu scaled by the node spacing).
-GC_LAMBDA = 1e-2
+GC_LAMBDA = 0.3
 GC_MU = 1e-1
 #: Robust reweighting: a vertex whose distance to the axis departs from the
 #: local radius by more than this many robust standard deviations gets weight 0
 #: (side branches, cap remnants).
 GC_OUTLIER_SIGMAS = 4.0
+#: Vertices where the tube map folds (1 - kappa . offset below this) are not used:
+#: they sit inside the bend further than the local radius of curvature.
+GC_MIN_STRETCH = 0.1
 #: Dense samples of the axis per node spacing, used to project vertices onto the axis.
 GC_SAMPLES_PER_NODE = 8
 
