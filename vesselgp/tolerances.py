@@ -58,3 +58,27 @@ MIN_ASPECT = 1.0
 #: Smoothing weight for the material-angle profile alpha(s) (dimensionless,
 #: relative to the bin spacing), the alpha analogue of Eq. 2's lambda.
 TORSION_SMOOTHING = 1.0
+
+# --- synthetic vessels (vesselgp.synthetic) ---------------------------------
+#: Default number of samples of a named centre line (before arc-length resampling).
+SYNTH_CURVE_SAMPLES = 2000
+#: Samples of the true axis, uniform in normalized arc length (GroundTruth.s).
+SYNTH_AXIS_SAMPLES = 2001
+#: Points of the trapezoid quadrature that computes the arc length of a curve's spline.
+SYNTH_ARCLENGTH_QUADRATURE = 40001
+#: Angular samples of a cross-section for its perimeter-mean radius (Eq. 4 convention).
+SYNTH_SECTION_SAMPLES = 720
+#: Newton steps refining the projection of a vertex onto the true axis.
+SYNTH_NEWTON_STEPS = 4
+#: Distance to an end plane (times the mean radius) below which a vertex lies on that end.
+SYNTH_END_PLANE = 1e-6
+#: An end-plane vertex closer to the centre than this fraction of the section radius is on the cap, not the rim.
+SYNTH_RIM_FRACTION = 0.98
+#: Iterations of pymeshlab's isotropic explicit remeshing.
+SYNTH_REMESH_ITERATIONS = 5
+#: Dihedral angle (degrees) above which the remesher keeps an edge as a feature (cap rims).
+SYNTH_REMESH_FEATURE_DEG = 30.0
+#: Random jitter of the inner rings before remeshing, in ring/around spacings (breaks the ring lattice).
+SYNTH_REMESH_JITTER = 0.3
+#: Largest allowed section radius times axis curvature (1 = the tube folds over itself).
+SYNTH_MAX_FOLD = 0.9
