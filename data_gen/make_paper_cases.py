@@ -62,7 +62,7 @@ def write_case(case, folder, resolution):
         "vessel_length": case.truth.length,
         "vessel_curve": case.truth.name,
     }
-    (folder / "case.json").write_text(json.dumps(meta, indent=1))
+    (folder / "case.json").write_text(json.dumps(meta) + "\n")
 
 
 def main(argv=None):

@@ -167,7 +167,7 @@ def test_deform_remeshed_vessel_keeps_vertex_truth():
 
 def perimeter_mean_of_rings(V, n_around, n_rings):
     rings = V[: n_rings * n_around].reshape(n_rings, n_around, 3)
-    C = rings.mean(axis=1)  # exact for rotationally symmetric samples; refined below
+    C = rings.mean(axis=1)  # the axis point for sections with 2- or 3-fold symmetry
     d = np.linalg.norm(rings - C[:, None], axis=2)
     seg = np.linalg.norm(np.roll(rings, -1, axis=1) - rings, axis=2)
     w = 0.5 * (seg + np.roll(seg, 1, axis=1))

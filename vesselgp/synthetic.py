@@ -554,7 +554,10 @@ def _ring_mesh(n_rings, n_around, capped):
 
 
 def _pure_value(x):
-    cls = getattr(__import__("pymeshlab"), "PureValue", None) or getattr(__import__("pymeshlab"), "AbsoluteValue")
+    """An absolute length for pymeshlab: ``PureValue`` (<= 2022.2) or ``AbsoluteValue`` (2023+)."""
+    import pymeshlab
+
+    cls = getattr(pymeshlab, "PureValue", None) or getattr(pymeshlab, "AbsoluteValue")
     return cls(float(x))
 
 
