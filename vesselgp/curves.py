@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import make_interp_spline
+from scipy.interpolate import make_interp_spline, make_smoothing_spline
 
 from . import tolerances as tol
 from ._validate import as_points, as_vector
@@ -267,7 +267,7 @@ class FrenetResult:
     defined: np.ndarray
 
 
-def frenet(P, length_scale=None):
+def frenet(P, length_scale=None, *, smooth=False):
     """Frenet curvature, torsion and normal of a curve, from a quintic spline.
 
     Parameters
@@ -277,6 +277,12 @@ def frenet(P, length_scale=None):
     length_scale : float, optional
         Scale (e.g. the vessel radius) below whose reciprocal the curvature
         counts as zero. Default: 1 % of the curve length.
+    smooth : bool
+        For noisy curves (a fitted axis): take derivatives of cubic smoothing
+        splines with a smoothing length of a few ``length_scale``, and
+        the torsion as the rate at which the curvature vector turns about the
+        tangent relative to the RMF (tau = d phi / ds), which needs one
+        derivative fewer than the triple-product formula.
 
     Returns
     -------
@@ -292,6 +298,8 @@ def frenet(P, length_scale=None):
     (True, True)
     """
     P = as_points(P, "P", min_rows=4)
+    if smooth:
+        return _frenet_smooth(P, length_scale)
     u, sp = _spline(P)
     d1, d2, d3 = (sp.derivative(j)(u) for j in (1, 2, 3))
     c = np.cross(d1, d2)
@@ -304,6 +312,40 @@ def frenet(P, length_scale=None):
     tau = np.full(len(P), np.nan)
     tau[defined] = np.sum(c[defined] * d3[defined], axis=1) / nc[defined] ** 2
     T = d1 / n1[:, None]
+    B = np.full_like(c, np.nan)
+    B[defined] = c[defined] / nc[defined, None]
+    N = np.cross(B, T)
+    return FrenetResult(curvature=kappa, torsion=tau, normal=N, defined=defined)
+
+
+def _frenet_smooth(P, length_scale):
+    """Frenet quantities of a noisy curve (see :func:`frenet`, ``smooth=True``)."""
+    u = chord_length(P)
+    if length_scale is None:
+        length_scale = 0.01 * u[-1]
+    # smoothing length: a few length scales (curvature below a vessel radius is noise)
+    h = u[-1] / (len(P) - 1)
+    lam = (tol.FRENET_SMOOTHING_SCALES * float(length_scale)) ** 4 / h
+    sps = [make_smoothing_spline(u, P[:, d], lam=lam) for d in range(3)]
+    d1 = np.stack([sp.derivative(1)(u) for sp in sps], axis=1)
+    d2 = np.stack([sp.derivative(2)(u) for sp in sps], axis=1)
+    c = np.cross(d1, d2)
+    nc = np.linalg.norm(c, axis=1)
+    n1 = np.linalg.norm(d1, axis=1)
+    kappa = nc / n1**3
+    defined = kappa * float(length_scale) > tol.STRAIGHT_KAPPA_R_FITTED
+    T = d1 / n1[:, None]
+    T, U, V = rotation_minimizing_frames(P, T)
+    kvec = d2 - np.sum(d2 * T, axis=1)[:, None] * T  # curvature direction, normal to T
+    phi = np.arctan2(np.sum(kvec * V, axis=1), np.sum(kvec * U, axis=1))
+    tau = np.full(len(P), np.nan)
+    # each maximal run of defined samples gets its own smoothed phi(s)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], defined.astype(int), [0]])))
+    for a, b in zip(edges[::2], edges[1::2]):
+        if b - a >= 5:
+            ph = make_smoothing_spline(u[a:b], np.unwrap(phi[a:b]))
+            tau[a:b] = ph.derivative()(u[a:b])
+    defined = defined & np.isfinite(tau)
     B = np.full_like(c, np.nan)
     B[defined] = c[defined] / nc[defined, None]
     N = np.cross(B, T)

@@ -18,6 +18,12 @@ STRAIGHT_SIN = 1e-6
 #: Curvature (times the local radius) below which the Frenet frame is undefined.
 STRAIGHT_KAPPA_R = 1e-4
 
+#: Smoothing length of the Frenet quantities of a fitted axis, in length scales (radii).
+FRENET_SMOOTHING_SCALES = 0.7
+
+#: The same for a fitted (noisy) axis: bend radius above 500 length scales (radii) is straight.
+STRAIGHT_KAPPA_R_FITTED = 2e-3
+
 #: Orthonormality tolerance for frames handed to the library by a user.
 FRAME_ORTHONORMAL = 1e-6
 
@@ -49,15 +55,21 @@ GC_OUTLIER_SIGMAS = 4.0
 #: Vertices where the tube map folds (1 - kappa . offset below this) are not used:
 #: they sit inside the bend further than the local radius of curvature.
 GC_MIN_STRETCH = 0.1
+#: Newton steps refining each vertex's closest-point parameter on the axis.
+GC_NEWTON_STEPS = 3
 #: Dense samples of the axis per node spacing, used to project vertices onto the axis.
 GC_SAMPLES_PER_NODE = 8
 
 #: Vessel must be at least this many mean diameters long.
 MIN_ASPECT = 1.0
 
-#: Smoothing weight for the material-angle profile alpha(s) (dimensionless,
-#: relative to the bin spacing), the alpha analogue of Eq. 2's lambda.
+#: Bins of Eq. 7's circular mean per axis node (node spacing is half a radius).
+TORSION_BINS_PER_NODE = 2
+#: Smoothing length of the material-angle profile alpha(s), in axis-node
+#: spacings (the alpha analogue of Eq. 2's lambda).
 TORSION_SMOOTHING = 1.0
+#: Bins of Eq. 7 whose mean s are closer than this fraction of a bin are merged.
+TORSION_MIN_BIN_GAP = 0.25
 
 # --- synthetic vessels (vesselgp.synthetic) ---------------------------------
 #: Default number of samples of a named centre line (before arc-length resampling).
@@ -82,3 +94,26 @@ SYNTH_REMESH_FEATURE_DEG = 30.0
 SYNTH_REMESH_JITTER = 0.3
 #: Largest allowed section radius times axis curvature (1 = the tube folds over itself).
 SYNTH_MAX_FOLD = 0.9
+
+# --- deformation and joining (vesselgp.deform, vesselgp.join) ---------------
+#: ARAP iterations refining the rod placement (method "rod_arap"); the rod start is
+#: already close to an ARAP minimum, more iterations only cost time.
+DEFORM_REFINE_ITERATIONS = 3
+#: ARAP iterations of the plain "arap" comparison method (from the rest shape).
+DEFORM_ARAP_ITERATIONS = 10
+#: Moving vertices must lie within this many mean radii (along the axis) of a vessel end.
+JOIN_END_REACH = 2.0
+#: Shortest free part (mean radii) between the fixed region and the moving end.
+JOIN_MIN_FREE_LENGTH = 1.0
+#: Probe step (radians) of the three-point parabola that brackets the optimum angle.
+JOIN_PROBE_STEP = 0.5
+#: Half-width (radians) of the bracket around the parabola's vertex searched by NLopt.
+JOIN_BRACKET = 0.35
+#: Initial NLopt step (radians) inside the bracket.
+JOIN_INITIAL_STEP = 0.05
+#: Absolute tolerance (radians) on the optimal angle (about 0.006 degrees).
+JOIN_XTOL = 1e-4
+#: Relative tolerance on the energy for NLopt.
+JOIN_FTOL_REL = 1e-10
+#: Maximum NLopt energy evaluations (after the probes).
+JOIN_MAX_EVALS = 40
