@@ -1,0 +1,231 @@
+"""Handle deformation (vesselgp.deform): twist spreading, exact handles, no inversions."""
+import igl
+import numpy as np
+import pytest
+
+from vesselgp.deform import RodDeformer, _SimpleEnd, deform_vessel
+from vesselgp.errors import EndsError, FrameError
+from vesselgp.fit import fit_generalized_cylinder
+from vesselgp.join import Frame
+from vesselgp.synthetic import synthetic_vessel
+from vesselgp.torsion import TorsionMeter
+
+NA = 24  # points per ring
+
+
+def tube(curve="straight", na=NA):
+    """Structured ring tube (ring k, point j = index k * na + j), its end rings and GC."""
+    ves = synthetic_vessel(curve, radius=1.5, n_around=na, remesh=False)
+    V, F = ves.V, ves.F
+    rings = len(V) // na
+    first, last = np.arange(na), np.arange((rings - 1) * na, rings * na)
+    gc = fit_generalized_cylinder(V, F, ends=(_SimpleEnd(V, first), _SimpleEnd(V, last)))
+    return V, F, first, last, rings, gc
+
+
+@pytest.fixture(scope="module")
+def straight():
+    V, F, first, last, rings, gc = tube()
+    return V, F, first, last, rings, gc, TorsionMeter(V, F, gc)
+
+
+def end_frame(gc, s=1.0):
+    p, fr = gc.at([s])
+    sign = 1.0 if s == 1.0 else -1.0
+    return Frame(p[0], sign * fr[0, 0], fr[0, 1])
+
+
+def ring_angles(V, X, rings, fracs, na=NA):
+    """Independent twist measurement: mean turn (degrees) of each ring about the z axis,
+    and the exact fraction of the length where that ring sits."""
+    out, where = [], []
+    for f in fracs:
+        k = int(round(f * (rings - 1)))
+        ids = np.arange(k * na, (k + 1) * na)
+        a0 = np.arctan2(V[ids, 1], V[ids, 0])
+        a1 = np.arctan2(X[ids, 1], X[ids, 0])
+        out.append(np.degrees(np.angle(np.mean(np.exp(1j * (a1 - a0))))))
+        where.append(k / (rings - 1))
+    return np.array(out), np.array(where)
+
+
+def inverted_faces(V, X, F, gc, prof):
+    """Faces whose normal flips against the outward radial direction from the axis.
+
+    Rest radial: face centroid minus the rest axis at the face's mean s. Deformed
+    radial: centroid minus the *measured* deformed axis (TorsionMeter) at that s.
+    """
+    s = gc.vertex_s[F].mean(axis=1)
+    bad = []
+    for Y, axis in ((V, gc.at(s)[0]), (X, np.stack([np.interp(s, prof.s, prof.centers[:, d]) for d in range(3)], 1))):
+        a, b, c = Y[F[:, 0]], Y[F[:, 1]], Y[F[:, 2]]
+        n = np.cross(b - a, c - a)
+        n /= np.linalg.norm(n, axis=1)[:, None]
+        r = (a + b + c) / 3 - axis
+        r /= np.linalg.norm(r, axis=1)[:, None]
+        bad.append(np.sum(n * r, axis=1))
+    rest, dfm = bad
+    assert np.all(rest > 0.5), "rest mesh must be outward oriented"
+    return np.count_nonzero(dfm <= 0), float(dfm.min())
+
+
+# ----------------------------------------------------------------------------- twist spreading
+
+
+@pytest.mark.parametrize("method", ["rod", "rod_arap"])
+def test_end_twist_spreads_like_an_elastic_tube(straight, method):
+    V, F, first, last, rings, gc, meter = straight
+    assert abs(gc.length / gc.mean_radius - 20) < 0.1  # 20 radii long
+    d = RodDeformer(V, F, first, last, gc=gc, method=method)
+    X = d.deform(end_frame(gc), np.pi / 2)  # turned 90 degrees in place
+    prof = meter(X)
+    q = np.degrees(np.interp([0.25, 0.5, 0.75], prof.s, prof.alpha))
+    assert np.allclose(q, [22.5, 45.0, 67.5], atol=2.0), q
+    assert abs(np.degrees(prof.total_twist) - 90) < 2.0
+    # independently: ring directions of the structured tube
+    ang, where = ring_angles(V, X, rings, [0.25, 0.5, 0.75])
+    assert np.allclose(ang, 90 * where, atol=2.0), (ang, 90 * where)
+    assert np.allclose(ang, [22.5, 45.0, 67.5], atol=2.0)
+    # the end ring turned by exactly 90 degrees, the fixed ring did not move
+    assert np.abs(X[first] - V[first]).max() <= 1e-12
+    a_end, _ = ring_angles(V, X, rings, [1.0])
+    assert abs(a_end[0] - 90) < 1e-9
+
+
+@pytest.mark.parametrize("method", ["arap", "laplacian"])
+def test_plain_methods_keep_the_twist_near_the_end(straight, method):
+    """The paper's Laplacian editing and plain ARAP (10 iterations) do not spread a twist."""
+    V, F, first, last, rings, gc, meter = straight
+    X = deform_vessel(V, F, first, last, end_frame(gc), np.pi / 2, gc=gc, method=method)
+    ang, _ = ring_angles(V, X, rings, [0.25, 0.5, 1.0])
+    assert ang[0] < 10 and ang[1] < 20, ang  # rod methods: 22.5 and 45
+    assert abs(ang[2] - 90) < 1e-9  # but the end is where it was asked to be
+    prof = meter(X)
+    assert np.degrees(np.interp(0.25, prof.s, prof.alpha)) < 10
+
+
+def test_stiffness_radius4_is_uniform_on_a_cylinder(straight):
+    V, F, first, last, rings, gc, meter = straight
+    Xu = RodDeformer(V, F, first, last, gc=gc, method="rod").deform(end_frame(gc), 1.0)
+    Xr = RodDeformer(V, F, first, last, gc=gc, method="rod", stiffness="radius4").deform(end_frame(gc), 1.0)
+    assert np.abs(Xu - Xr).max() < 1e-3 * gc.mean_radius  # fitted radius is constant up to noise
+
+
+# ----------------------------------------------------------------------------- handles and geometry
+
+
+def test_identity_target_gives_the_rest_mesh():
+    V, F, first, last, rings, gc = tube("arc")
+    d = RodDeformer(V, F, first, last, gc=gc, method="rod")
+    X = d.deform(end_frame(gc), 0.0)
+    assert np.abs(X - V).max() < 1e-9 * gc.length
+    # the same for the end at s = 0 moving and the far ring held
+    d0 = RodDeformer(V, F, last, first, gc=gc, method="rod")
+    assert d0.s_end == 0.0
+    X0 = d0.deform(end_frame(gc, 0.0), 0.0)
+    assert np.abs(X0 - V).max() < 1e-9 * gc.length
+
+
+def bent_target(gc, turn_deg=35.0, shift=(4.0, -2.0, -3.0)):
+    """Move the s = 1 end sideways and tilt it."""
+    p, fr = gc.at([1.0])
+    th = np.radians(turn_deg)
+    t = np.cos(th) * fr[0, 0] + np.sin(th) * fr[0, 1]
+    return Frame(p[0] + np.asarray(shift), t, fr[0, 2])
+
+
+@pytest.mark.parametrize("method", ["rod_arap", "rod", "arap", "laplacian"])
+@pytest.mark.parametrize("angle_deg", [0.0, 75.0])
+def test_handles_are_held_exactly_and_no_face_inverts(straight, method, angle_deg):
+    V, F, first, last, rings, gc, meter = straight
+    target = bent_target(gc)
+    d = RodDeformer(V, F, first, last, gc=gc, method=method)
+    X = d.deform(target, np.radians(angle_deg))
+    L = gc.length
+    assert np.abs(X[first] - V[first]).max() <= 1e-12
+    ring = X[last]
+    c = ring.mean(axis=0)  # a regular ring: its mean is its centre
+    assert np.linalg.norm(c - target.origin) <= 1e-6 * L
+    # the ring's plane normal is the target tangent (ring turned rigidly)
+    _, _, vt = np.linalg.svd(ring - c)
+    assert abs(abs(vt[2] @ target.tangent) - 1) < 1e-10
+    assert np.allclose(np.linalg.norm(ring - c, axis=1), np.linalg.norm(V[last] - V[last].mean(0), axis=1), atol=1e-9)
+    # the rest U of the end went to the target normal turned by angle about the tangent:
+    # rigid rotation of the ring (Kabsch), applied to the rest U
+    A, B = V[last] - V[last].mean(0), ring - c
+    u_, _, vt_ = np.linalg.svd(A.T @ B)
+    R = (u_ @ np.diag([1, 1, np.linalg.det(u_ @ vt_)]) @ vt_).T
+    dvec = R @ gc.at([1.0])[1][0, 1]
+    t, nrm = target.tangent, target.normal
+    a = np.degrees(np.arctan2(np.cross(nrm, dvec) @ t, nrm @ dvec))
+    assert abs(a - angle_deg) < 1e-6
+    prof = meter(X)
+    n_bad, worst = inverted_faces(V, X, F, gc, prof)
+    if method.startswith("rod"):
+        assert n_bad == 0, (n_bad, worst)
+
+
+def test_rod_axis_meets_target_with_c1_join(straight):
+    V, F, first, last, rings, gc, meter = straight
+    target = bent_target(gc, turn_deg=60, shift=(8.0, 0.0, -5.0))
+    d = RodDeformer(V, F, first, last, gc=gc, method="rod")
+    s, P, Fr = d.axis(target)
+    assert np.linalg.norm(P[-1] - target.origin) < 1e-9 * gc.length
+    assert np.allclose(Fr[-1, 0], target.tangent, atol=1e-9)
+    # tangent continuous at the start of the free part; length changes sensibly
+    seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    assert seg.max() / seg.min() < 2.0
+    cos = np.sum(Fr[1:, 0] * Fr[:-1, 0], axis=1)
+    assert cos.min() > np.cos(np.radians(5))  # no kink anywhere
+    # orthonormal frames
+    G = np.einsum("kij,klj->kil", Fr, Fr)
+    assert np.abs(G - np.eye(3)).max() < 1e-9
+
+
+def test_factorisations_are_computed_once(straight, monkeypatch):
+    V, F, first, last, rings, gc, meter = straight
+    calls = {"arap": 0, "mqwf": 0}
+    real_arap, real_mq = igl.arap_precomputation, igl.min_quad_with_fixed_precompute
+
+    def arap(*a):
+        calls["arap"] += 1
+        return real_arap(*a)
+
+    def mq(*a):
+        calls["mqwf"] += 1
+        return real_mq(*a)
+
+    monkeypatch.setattr(igl, "arap_precomputation", arap)
+    monkeypatch.setattr(igl, "min_quad_with_fixed_precompute", mq)
+    d = RodDeformer(V, F, first, last, gc=gc, method="rod_arap")
+    dl = RodDeformer(V, F, first, last, gc=gc, method="laplacian")
+    target = bent_target(gc)
+    for a in np.linspace(-2, 2, 5):
+        d.deform(target, a)
+        dl.deform(target, a)
+    assert calls == {"arap": 1, "mqwf": 1}
+
+
+# ----------------------------------------------------------------------------- validation
+
+
+def test_bad_vertex_sets_raise(straight):
+    V, F, first, last, rings, gc, meter = straight
+    mid = np.arange((rings // 2) * NA, (rings // 2 + 1) * NA)
+    with pytest.raises(EndsError, match="overlap"):
+        RodDeformer(V, F, first, np.r_[last, first[:2]], gc=gc)
+    with pytest.raises(EndsError, match="empty"):
+        RodDeformer(V, F, [], last, gc=gc)
+    with pytest.raises(EndsError, match="ids span"):
+        RodDeformer(V, F, first, np.r_[last, len(V)], gc=gc)
+    with pytest.raises(EndsError, match="end"):
+        RodDeformer(V, F, first, mid, gc=gc)
+    with pytest.raises(EndsError, match="free part"):
+        RodDeformer(V, F, np.arange(len(V) - 2 * NA), last, gc=gc)
+    with pytest.raises(ValueError, match="method"):
+        RodDeformer(V, F, first, last, gc=gc, method="ffd")
+    d = RodDeformer(V, F, first, last, gc=gc, method="rod")
+    with pytest.raises(FrameError):
+        d.deform(([0, 0, 0], [0, 0, 0], [1, 0, 0]), 0.0)
+    with pytest.raises(FrameError):
+        d.deform("not a frame", 0.0)
