@@ -135,18 +135,26 @@ class GeneralizedCylinder:
 # ----------------------------------------------------------------------------- axis machinery
 
 
-def _interp_frames(ds, dp, dfr, s):
-    """Linear interpolation of dense axis samples and frames at ``s`` (re-orthonormalised)."""
+def _interp_frames(ds, dp, dfr, s, frames=True):
+    """Linear interpolation of dense axis samples and frames at ``s`` (re-orthonormalised).
+
+    With ``frames=False`` only the points and unit tangents are returned (the
+    Newton projection needs no more).
+    """
     s = np.clip(np.asarray(s, float), 0.0, 1.0)
     M = len(ds)
     j = np.clip(np.searchsorted(ds, s, side="right") - 1, 0, M - 2)
     t = ((s - ds[j]) / (ds[j + 1] - ds[j]))[:, None]
-    pts = (1 - t) * dp[j] + t * dp[j + 1]
-    T = (1 - t) * dfr[j, 0] + t * dfr[j + 1, 0]
-    T /= np.linalg.norm(T, axis=1)[:, None]
-    U = (1 - t) * dfr[j, 1] + t * dfr[j + 1, 1]
-    U -= np.sum(U * T, axis=1)[:, None] * T
-    U /= np.linalg.norm(U, axis=1)[:, None]
+    pts = dp[j] + t * (dp[j + 1] - dp[j])
+    T0 = dfr[j, 0]
+    T = T0 + t * (dfr[j + 1, 0] - T0)
+    T /= np.sqrt(np.einsum("ij,ij->i", T, T))[:, None]
+    if not frames:
+        return pts, T
+    U0 = dfr[j, 1]
+    U = U0 + t * (dfr[j + 1, 1] - U0)
+    U -= np.einsum("ij,ij->i", U, T)[:, None] * T
+    U /= np.sqrt(np.einsum("ij,ij->i", U, U))[:, None]
     return pts, np.stack([T, U, np.cross(T, U)], axis=1)
 
 
@@ -187,39 +195,44 @@ class _Axis:
         of Eq. 1).
         """
         j = np.clip(np.rint(np.clip(s, 0, 1) * (len(self.s) - 1)).astype(np.int64), 0, len(self.s) - 1)
-        return 1.0 - np.sum(self.kvec[j] * d, axis=1)
+        return 1.0 - np.einsum("ij,ij->i", self.kvec[j], d)
 
     def at(self, s):
         return _interp_frames(self.s, self.points, self.frames, s)
 
-    def project(self, P, s_prev, window):
+    def project(self, P, s_prev, window=None):
         """Closest-point parameter of each row of ``P`` near its previous parameter.
 
-        Candidates are the dense samples nearest to each point (k-d tree); among
-        those within ``window`` of ``s_prev`` the closest wins, which keeps a
-        vertex on its own stretch of axis where the vessel comes close to
-        itself. Two Newton steps then refine ``s`` on the interpolated axis.
+        With a ``window``, candidates are the dense samples nearest to each
+        point (k-d tree); among those within ``window`` of ``s_prev`` the
+        closest wins, which keeps a vertex on its own stretch of axis where the
+        vessel comes close to itself. Without one, ``s_prev`` is trusted as the
+        start (the axis moved little since). Newton steps then refine ``s`` on
+        the interpolated axis.
 
         Returns ``s`` (unclipped, may leave [0, 1] beyond the ends).
         """
-        if self._tree is None:
-            self._tree = cKDTree(self.points)
-        kq = min(8, len(self.s))
-        dist, idx = self._tree.query(P, k=kq)
-        sc = self.s[idx]
-        far = np.abs(sc - s_prev[:, None]) > window
-        d = np.where(far, np.inf, dist)
-        best = np.argmin(d, axis=1)
-        none = ~np.isfinite(d[np.arange(len(P)), best])
-        best[none] = 0
-        s = sc[np.arange(len(P)), best]
+        if window is None:
+            s = np.asarray(s_prev, float).copy()
+        else:
+            if self._tree is None:
+                self._tree = cKDTree(self.points)
+            kq = min(8, len(self.s))
+            dist, idx = self._tree.query(P, k=kq)
+            sc = self.s[idx]
+            far = np.abs(sc - s_prev[:, None]) > window
+            d = np.where(far, np.inf, dist)
+            best = np.argmin(d, axis=1)
+            none = ~np.isfinite(d[np.arange(len(P)), best])
+            best[none] = 0
+            s = sc[np.arange(len(P)), best]
         for _ in range(tol.GC_NEWTON_STEPS):
             s = np.clip(s, 0, 1)
-            pts, fr = self.at(s)
+            pts, T = _interp_frames(self.s, self.points, self.frames, s, frames=False)
             d = P - pts
             # d/ds of (p - m(s)) . T(s) is -(1 - k . d) times the length
             jac = np.maximum(self.stretch(s, d), tol.GC_MIN_STRETCH)
-            s = s + np.sum(d * fr[:, 0], axis=1) / (self.length * jac)
+            s = s + np.einsum("ij,ij->i", d, T) / (self.length * jac)
         return s
 
 
@@ -235,6 +248,12 @@ def _default_normal(points, t0):
     if n[j] > 1e-3 * scale:
         return d[j] / n[j]
     return _perpendicular(t0)
+
+
+def _subset(n):
+    """Evenly thinned vertex subset (a slice) for the fit iterations of large meshes."""
+    step = max(1, int(np.ceil(n / tol.GC_MAX_FIT_VERTICES)))
+    return slice(0, n, step)
 
 
 def _hat(s, K):
@@ -372,12 +391,44 @@ def _path_mask(V, F, e0, e1, rscale):
     return ex <= 2.0 * rscale
 
 
-def _initial_axis(V, F, e0, e1, area, K0):
+def _harmonic_between(V, F, b, bc, rscale):
+    """Harmonic field with values ``bc`` at vertices ``b`` (cotangent Laplacian, libigl).
+
+    Meshes above :data:`tolerances.GC_COARSE_INIT_VERTICES` vertices get the
+    field of a vertex-clustered copy (cells a fraction of the radius wide, graph
+    Laplacian): it only seeds the fit, and a million-row factorisation would
+    cost far more than the whole fit.
+    """
+    if len(V) <= tol.GC_COARSE_INIT_VERTICES:
+        return igl.harmonic(V, F, b, np.ascontiguousarray(bc[:, None]), 1).ravel()
+    area = float(igl.doublearea(V, F).sum()) / 2
+    h = min(np.sqrt(area / tol.GC_COARSE_INIT_VERTICES), tol.GC_COARSE_CELL_RADII * rscale)
+    key = np.floor((V - V.min(axis=0)) / h).astype(np.int64)
+    _, cell = np.unique(key, axis=0, return_inverse=True)
+    cell = cell.ravel()
+    nc = int(cell.max()) + 1
+    E = igl.edges(F)
+    ce = cell[E]
+    ce = ce[ce[:, 0] != ce[:, 1]]
+    A = sp.coo_matrix((np.ones(len(ce)), (ce[:, 0], ce[:, 1])), shape=(nc, nc)).tocsr()
+    A = ((A + A.T) > 0).astype(float)
+    L = (sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A).tocsr()
+    cb = cell[b]
+    cval = np.bincount(cb, weights=bc, minlength=nc) / np.maximum(np.bincount(cb, minlength=nc), 1)
+    known = np.unique(cb)
+    free = np.setdiff1d(np.arange(nc), known)
+    x = np.zeros(nc)
+    x[known] = cval[known]
+    x[free] = spla.spsolve(L[free][:, free].tocsc(), -L[free][:, known] @ x[known])
+    return x[cell]
+
+
+def _initial_axis(V, F, e0, e1, area, K0, rscale):
     """Harmonic field between the ends, then area-weighted centroids of its level bands (Eq. 1)."""
     b = np.concatenate([np.asarray(e0.vertices, np.int64), np.asarray(e1.vertices, np.int64)])
-    bc = np.concatenate([np.zeros(len(e0.vertices)), np.ones(len(e1.vertices))])[:, None]
+    bc = np.concatenate([np.zeros(len(e0.vertices)), np.ones(len(e1.vertices))])
     b, first = np.unique(b, return_index=True)
-    phi = igl.harmonic(V, F, b, np.ascontiguousarray(bc[first]), 1).ravel()
+    phi = _harmonic_between(V, F, b, bc[first], rscale)
     phi = np.clip(phi, 0.0, 1.0)
     band = np.minimum((phi * K0).astype(np.int64), K0 - 1)
     wsum = np.bincount(band, weights=area, minlength=K0)
@@ -504,7 +555,7 @@ def fit_generalized_cylinder(
     # -- initialisation: harmonic field + level-band centroids
     chord = float(np.linalg.norm(np.asarray(e1.center) - np.asarray(e0.center)))
     K0 = int(np.clip(chord / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
-    pts, s_prev, _ = _initial_axis(V, F, e0, e1, np.where(end_region, 0.0, area), K0)
+    pts, s_prev, _ = _initial_axis(V, F, e0, e1, np.where(end_region, 0.0, area), K0, rscale)
     L0 = chord_length(pts)[-1]
     # Shorter than its diameter: judged by the distance between the end centres
     # (the initial axis of such a stub is not reliable).
@@ -517,21 +568,27 @@ def fit_generalized_cylinder(
 
     radii = None
     window = 4.0 / (K - 1) + 2.0 * rscale / L0
+    # large meshes iterate on an evenly thinned subset; the final pass uses all vertices
+    sub = _subset(n)
+    Vs, areas, ends_s, s_sub = V[sub], area[sub], end_region[sub], s_prev[sub]
     it = 0
     for it in range(1, max_iter + 1):
         axis = _Axis(nodes, initial_normal)
-        s_raw = axis.project(V, s_prev, window)
-        inside = (s_raw > 0) & (s_raw < 1) & ~end_region
+        s_raw = axis.project(Vs, s_sub, window)
+        inside = (s_raw > 0) & (s_raw < 1) & ~ends_s
         s = np.clip(s_raw, 0, 1)
-        local, jac = _local_coords(axis, V, s)
-        w = _robust_weights(s, local, jac, area, radii, inside)
+        local, jac = _local_coords(axis, Vs, s)
+        w = _robust_weights(s, local, jac, areas, radii, inside)
         _, fr_nodes = axis.at(np.linspace(0, 1, K))
         corr = _circle_update(fr_nodes, nodes, s, local, w, lam, rscale)
         nodes = nodes + corr
         radii = _radius_fit(s, np.hypot(local[:, 1], local[:, 2]), w, K, mu)
         step = float(np.abs(corr).max())
-        s_prev = s
-        window = 3.0 / (K - 1)
+        # parameters on the corrected axis, for the next projection's start
+        old_s = np.linspace(0, 1, K)
+        new_arc = chord_length(nodes)
+        s_sub = np.interp(s, old_s, new_arc / new_arc[-1])
+        window = None
         nodes = _resample_nodes(nodes, K)
         log.debug("GC iteration %d: axis moved %.3g (radius %.3g)", it, step, rscale)
         if step < tol.GC_CONVERGENCE * rscale:
@@ -539,9 +596,12 @@ def fit_generalized_cylinder(
     else:
         log.warning("generalized-cylinder fit did not converge in %d iterations", max_iter)
 
-    # final parameterisation on the converged axis
+    # final parameterisation on the converged axis, all vertices
     axis = _Axis(nodes, initial_normal)
-    s_raw = axis.project(V, s_prev, window)
+    if sub.stop == n and sub.step == 1:
+        s_raw = axis.project(V, s_sub, None)
+    else:
+        s_raw = axis.project(V, s_prev, 3.0 / (K - 1) + 2.0 * rscale / L0)
     inside = (s_raw > 0) & (s_raw < 1) & ~end_region
     s = np.clip(s_raw, 0, 1)
     local, jac = _local_coords(axis, V, s)

@@ -55,6 +55,13 @@ GC_OUTLIER_SIGMAS = 4.0
 #: Vertices where the tube map folds (1 - kappa . offset below this) are not used:
 #: they sit inside the bend further than the local radius of curvature.
 GC_MIN_STRETCH = 0.1
+#: Above this many vertices the harmonic initialisation runs on a vertex-clustered copy.
+GC_COARSE_INIT_VERTICES = 30000
+#: Cells of that copy are at most this many (end) radii wide, so they never bridge the lumen.
+GC_COARSE_CELL_RADII = 0.3
+#: The fit iterates on at most about this many vertices (evenly thinned); the final
+#: parameterisation uses every vertex.
+GC_MAX_FIT_VERTICES = 60000
 #: Newton steps refining each vertex's closest-point parameter on the axis.
 GC_NEWTON_STEPS = 3
 #: Dense samples of the axis per node spacing, used to project vertices onto the axis.
@@ -80,6 +87,13 @@ SYNTH_AXIS_SAMPLES = 2001
 SYNTH_ARCLENGTH_QUADRATURE = 40001
 #: Angular samples of a cross-section for its perimeter-mean radius (Eq. 4 convention).
 SYNTH_SECTION_SAMPLES = 720
+#: Above this many vertices the harmonic initialisation runs on a vertex-clustered copy.
+GC_COARSE_INIT_VERTICES = 30000
+#: Cells of that copy are at most this many (end) radii wide, so they never bridge the lumen.
+GC_COARSE_CELL_RADII = 0.3
+#: The fit iterates on at most about this many vertices (evenly thinned); the final
+#: parameterisation uses every vertex.
+GC_MAX_FIT_VERTICES = 60000
 #: Newton steps refining the projection of a vertex onto the true axis.
 SYNTH_NEWTON_STEPS = 4
 #: Distance to an end plane (times the mean radius) below which a vertex lies on that end.
@@ -117,3 +131,30 @@ JOIN_XTOL = 1e-4
 JOIN_FTOL_REL = 1e-10
 #: Maximum NLopt energy evaluations (after the probes).
 JOIN_MAX_EVALS = 40
+
+# --- figures, demo and command line (vesselgp.viz, vesselgp.demo, vesselgp.cli) ---
+#: Smallest half-range of the symmetric colour scale of a signed quantity, in
+#: the quantity's units (degrees in every figure): an untwisted vessel is not
+#: coloured by round-off.
+VIZ_MIN_RANGE = 1.0
+#: World +z is the screen "up" of a render when its component in the picture
+#: plane is at least this long; otherwise the longest principal axis is horizontal.
+VIZ_UP_TOLERANCE = 0.5
+#: Light direction in screen coordinates (right, up, towards the viewer).
+VIZ_LIGHT = (-0.4, 0.5, 1.0)
+#: Ambient part of the flat shading (the rest is two-sided Lambert).
+VIZ_AMBIENT = 0.35
+#: Colour of the other meshes drawn for context (the vessel joined to).
+VIZ_OTHER_GREY = (0.78, 0.78, 0.78)
+#: Meshes with more faces are decimated before rendering (keeps a render near 1 s).
+VIZ_MAX_FACES = 30000
+#: Resolution of the PNG figures.
+VIZ_DPI = 110
+#: Width (inches) of a mesh render.
+VIZ_FIG_WIDTH = 8.0
+#: Points of the energy curve (paper Fig. 4) written by the demo and `vesselgp join`.
+DEMO_CURVE_POINTS = 25
+#: Half-width (degrees) of the energy curve about the optimum.
+DEMO_CURVE_RANGE_DEG = 180.0
+#: Rotation from the optimum (degrees) shown as the "large torsion" configuration (Figs. 2-3 a, c).
+DEMO_LARGE_TORSION_DEG = 90.0

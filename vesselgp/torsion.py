@@ -42,6 +42,7 @@ from .fit import (
     _circle_update,
     _diff,
     _local_coords,
+    _subset,
     fit_generalized_cylinder,
 )
 
@@ -164,6 +165,7 @@ class TorsionMeter:
         K = len(rest.s)
         self.K = K
         self.n_bins = tol.TORSION_BINS_PER_NODE * K
+        self._sub = _subset(self.n)  # the bias correction runs on a thinned subset
         self.s0 = rest.vertex_s
         self.w = rest.vertex_weight
         self.area = rest.vertex_area
@@ -184,10 +186,12 @@ class TorsionMeter:
         """Eq. 6 with the rest correspondence, then the circle-fit correction."""
         nodes = self._eq6.solve(np.asarray(self.BtW @ V))
         axis = _Axis(nodes)
+        sub = self._sub
+        Vs = V[sub]
         for _ in range(self.correct_bias):
-            s = self._map_s(axis, nodes)
-            local, jac = _local_coords(axis, V, s)
-            w = self.area / np.clip(jac, tol.GC_MIN_STRETCH, None)
+            s = self._map_s(axis, nodes)[sub]
+            local, jac = _local_coords(axis, Vs, s)
+            w = self.area[sub] / np.clip(jac, tol.GC_MIN_STRETCH, None)
             _, frn = axis.at(self._node_s(axis, nodes))
             nodes = nodes + _circle_update(frn, nodes, s, local, w, tol.GC_LAMBDA, self.rscale, pin_ends=False)
             axis = _Axis(nodes)
@@ -204,8 +208,9 @@ class TorsionMeter:
 
     def _parameterise(self, V):
         axis, nodes = self._recover_axis(V)
+        # the rest s mapped onto the deformed axis is a close start: Newton only
         s_start = self._map_s(axis, nodes)
-        s = np.clip(axis.project(V, s_start, 3.0 / (self.K - 1)), 0.0, 1.0)
+        s = np.clip(axis.project(V, s_start), 0.0, 1.0)
         local, _ = _local_coords(axis, V, s)
         theta = np.arctan2(local[:, 2], local[:, 1])
         return axis, nodes, theta
@@ -252,7 +257,8 @@ class TorsionMeter:
         sb, ab, wts = sb[keep], ab[keep], wts[keep]
         # smoothing length: `smoothing` node spacings (a node is half a radius);
         # lam = (bins per unit s) * length^4 gives a transfer 1 / (1 + (omega length)^4)
-        lam = len(sb) * (self.smoothing / K) ** 4
+        smoothing = tol.TORSION_SMOOTHING if self.smoothing is None else float(self.smoothing)
+        lam = len(sb) * (smoothing / K) ** 4
         spl = make_smoothing_spline(sb, ab, w=wts / wts.mean(), lam=lam)
         sK = np.linspace(0.0, 1.0, K)
         a0 = float(spl(0.0))
