@@ -13,6 +13,8 @@ from .errors import *  # noqa: F401,F403
 from .curves import rotation_minimizing_frames, curve_tangents, frenet  # noqa: F401
 
 # Each stage adds its public names on its own line below.
+from .io import read_mesh, write_mesh  # noqa: F401
+from .mesh import clean_mesh, vessel_ends, mesh_scale, CleanReport, VesselEnd, MeshScale  # noqa: F401
 from .join import Frame, JoinProblem, JoinResult, minimize_torsion, stitch  # noqa: F401
 from .deform import deform_vessel  # noqa: F401
 from .fit import GeneralizedCylinder, fit_generalized_cylinder  # noqa: F401

@@ -158,3 +158,27 @@ DEMO_CURVE_POINTS = 25
 DEMO_CURVE_RANGE_DEG = 180.0
 #: Rotation from the optimum (degrees) shown as the "large torsion" configuration (Figs. 2-3 a, c).
 DEMO_LARGE_TORSION_DEG = 90.0
+
+# --- mesh stage (vesselgp.mesh): ends, caps, units ---------------------------
+#: An end's outward direction points away from the centroid of the vertices
+#: within this many end radii of its centre (the nearby vessel body).
+ENDS_BODY_RADII = 2.0
+#: A flat cap needs at least this many faces (rejects single flat triangles).
+CAP_MIN_FACES = 4
+#: A flat cap's rim radius must be at least this many median edge lengths.
+CAP_MIN_RADIUS_EDGES = 2.0
+#: A geodesic ring (band one median edge wide) needs this many vertices to be
+#: used when locating a rounded end.
+ENDS_MIN_RING = 3
+#: A rounded end's region: vertices within this many end radii (geodesic) of its tip.
+ENDS_ROUNDED_REGION = 0.5
+#: End radii closer than this (relative) are ties when ordering ends.
+ENDS_TIE_RTOL = 1e-6
+#: Units guess: a bounding-box diagonal below this suggests metres (mm vessels span 10-500).
+UNITS_M_MAX_DIAG = 0.5
+#: Units guess: a diagonal below this, with median edges finer than
+#: UNITS_CM_EDGE_FRACTION of it, suggests centimetres.
+UNITS_CM_MAX_DIAG = 5.0
+UNITS_CM_EDGE_FRACTION = 0.02
+#: Units guess: a diagonal above this suggests micrometres.
+UNITS_UM_MIN_DIAG = 5000.0

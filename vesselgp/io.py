@@ -1,0 +1,634 @@
+"""Reading and writing triangle meshes.
+
+:func:`read_mesh` returns ``(V, F)`` for STL (ASCII and binary), PLY (ASCII
+and binary), OBJ, OFF and VTK XML PolyData (``.vtp``); polygons are
+triangulated and the per-face corners of STL are merged into shared vertices.
+:func:`write_mesh` writes the same formats atomically (a temporary file in the
+target folder, then :func:`os.replace`), optionally with per-vertex colours and
+scalars (PLY and VTP; colours also in OBJ and OFF).
+
+Backends, chosen after checking each on polygons and on NaN coordinates:
+
+* STL, OBJ, OFF: :func:`igl.read_triangle_mesh` (fan-triangulates polygons
+  correctly and keeps NaN coordinates so they can be reported; pymeshlab's
+  OFF reader mis-triangulates pentagons and silently drops NaN vertices).
+* PLY: pymeshlab (igl aborts the process on PLY files mixing polygon sizes);
+  the vertex count declared in the header is checked against what pymeshlab
+  kept, because it silently drops vertices with NaN coordinates.
+* VTP: a small parser here (xml.etree, base64, zlib): ascii, inline binary
+  and appended (base64 or raw) DataArrays, UInt32/UInt64 headers, optional
+  ``vtkZLibDataCompressor``.
+
+Writers are plain numpy so that float64 coordinates round-trip exactly.
+"""
+from __future__ import annotations
+
+import base64
+import logging
+import os
+import re
+import tempfile
+import time
+import xml.etree.ElementTree as ET
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from ._validate import as_mesh
+from .errors import InvalidMeshError, MeshReadError, MeshWriteError
+
+__all__ = ["read_mesh", "write_mesh", "READ_FORMATS", "WRITE_FORMATS"]
+
+log = logging.getLogger(__name__)
+
+#: File extensions understood by :func:`read_mesh`.
+READ_FORMATS = (".stl", ".ply", ".obj", ".off", ".vtp")
+#: File extensions written by :func:`write_mesh`.
+WRITE_FORMATS = (".ply", ".obj", ".off", ".stl", ".vtp")
+
+_FLOAT_FMT = "%.17g"  # shortest format that round-trips every float64
+
+_VTK_TYPES = {
+    "Int8": "i1", "UInt8": "u1", "Int16": "i2", "UInt16": "u2",
+    "Int32": "i4", "UInt32": "u4", "Int64": "i8", "UInt64": "u8",
+    "Float32": "f4", "Float64": "f8",
+}
+
+
+# --------------------------------------------------------------------------- #
+# reading
+# --------------------------------------------------------------------------- #
+def read_mesh(path):
+    """Read a triangle mesh from STL, PLY, OBJ, OFF or VTP.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its extension (case-insensitive) selects the format.
+
+    Returns
+    -------
+    V : (n, 3) float64
+        Vertex positions. For STL, exactly equal corner positions are merged
+        into one vertex (first-occurrence order is kept).
+    F : (m, 3) int64
+        Triangles; quads and polygons are fan-triangulated.
+
+    Raises
+    ------
+    MeshReadError
+        Missing or empty file, unknown extension, unreadable content, or a
+        file without triangles.
+    InvalidMeshError
+        NaN or infinite coordinates, or face indices out of range.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> d = tempfile.mkdtemp()
+    >>> p = os.path.join(d, "quad.obj")
+    >>> _ = open(p, "w").write("v 0 0 0\\nv 1 0 0\\nv 1 1 0\\nv 0 1 0\\nf 1 2 3 4\\n")
+    >>> V, F = read_mesh(p)
+    >>> V.shape, F.tolist()
+    ((4, 3), [[0, 1, 2], [0, 2, 3]])
+    """
+    p = Path(os.fspath(path))
+    if not p.exists():
+        raise MeshReadError(f"{p}: no such file; check the path")
+    if not p.is_file():
+        raise MeshReadError(f"{p}: is not a regular file; pass the path of a mesh file")
+    ext = p.suffix.lower()
+    if ext not in READ_FORMATS:
+        raise MeshReadError(
+            f"{p}: unknown mesh extension {ext!r}; vesselgp reads "
+            f"{', '.join(READ_FORMATS)} (convert the file to one of these)"
+        )
+    if p.stat().st_size == 0:
+        raise MeshReadError(f"{p}: file is empty; re-export the mesh")
+    t0 = time.perf_counter()
+    reader = {".stl": _read_stl, ".ply": _read_ply, ".obj": _read_igl,
+              ".off": _read_igl, ".vtp": _read_vtp_mesh}[ext]
+    V, F = reader(p)
+    V = np.asarray(V)
+    F = np.asarray(F)
+    if V.size == 0 or F.size == 0 or F.ndim != 2:
+        raise MeshReadError(
+            f"{p}: no triangles could be read (the file is not a valid {ext[1:].upper()} "
+            "surface mesh); check or re-export it"
+        )
+    try:
+        V, F = as_mesh(V, F)
+    except InvalidMeshError as exc:
+        raise InvalidMeshError(f"{p}: {exc}") from None
+    log.info("read %s: %d vertices, %d faces in %.3f s", p, len(V), len(F),
+             time.perf_counter() - t0)
+    return V, F
+
+
+def _unreadable(p, exc):
+    msg = str(exc).strip().splitlines()
+    detail = f" ({msg[0]})" if msg else ""
+    return MeshReadError(
+        f"{p}: unreadable {p.suffix[1:].upper()} content{detail}; check that the file "
+        "is a complete mesh of that format"
+    )
+
+
+def _read_igl(p):
+    import igl
+
+    try:
+        V, F = igl.read_triangle_mesh(str(p))
+    except (RuntimeError, ValueError) as exc:
+        raise _unreadable(p, exc) from None
+    return V, F
+
+
+def _merge_exact(V, F):
+    """Merge exactly equal vertex positions, keeping first-occurrence order."""
+    V = V + 0.0  # turn -0.0 into 0.0 so that it merges with 0.0
+    _, first, inv = np.unique(V, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return V[first[order]], rank[inv.reshape(-1)][F]
+
+
+def _read_stl(p):
+    V, F = _read_igl(p)
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    if V.size == 0 or F.size == 0:
+        return V, F
+    if not np.all(np.isfinite(V)):
+        bad = int(np.count_nonzero(~np.isfinite(V).all(axis=1)))
+        raise InvalidMeshError(
+            f"{p}: {bad} triangle corners have NaN or infinite coordinates; repair the file"
+        )
+    return _merge_exact(V, F)
+
+
+def _ply_header_count(p, element):
+    """Count declared for ``element`` in a PLY header, or None."""
+    with open(p, "rb") as fh:
+        head = fh.read(65536)
+    end = head.find(b"end_header")
+    if not head.startswith(b"ply") or end < 0:
+        raise MeshReadError(f"{p}: not a PLY file (no 'ply ... end_header' header); re-export it")
+    m = re.search(rb"^element\s+" + element.encode() + rb"\s+(\d+)", head[:end], re.M)
+    return int(m.group(1)) if m else None
+
+
+def _read_ply(p):
+    import pymeshlab
+
+    declared = _ply_header_count(p, "vertex")
+    ms = pymeshlab.MeshSet()
+    try:
+        ms.load_new_mesh(str(p))
+    except pymeshlab.PyMeshLabException as exc:
+        raise _unreadable(p, exc) from None
+    m = ms.current_mesh()
+    V = m.vertex_matrix()
+    if declared is not None and m.vertex_number() < declared:
+        raise InvalidMeshError(
+            f"{p}: the header declares {declared} vertices but only {m.vertex_number()} "
+            "have finite coordinates; remove or repair the NaN/infinite vertices"
+        )
+    return V, m.face_matrix()
+
+
+# ---- VTK XML PolyData ------------------------------------------------------ #
+def _read_vtp_mesh(p):
+    V, F, _ = _read_vtp(p)
+    return V, F
+
+
+def _b64chars(nbytes):
+    return 4 * ((nbytes + 2) // 3)
+
+
+def _b64(text, p):
+    try:
+        return base64.b64decode(text, validate=False)
+    except (ValueError, TypeError) as exc:
+        raise MeshReadError(f"{p}: corrupt base64 data in VTP file ({exc}); re-export it") from None
+
+
+class _VtpDecoder:
+    """Decodes VTK XML DataArrays of one file (ascii, binary, appended)."""
+
+    def __init__(self, p, root, appended, app_encoding):
+        self.p = p
+        bo = root.get("byte_order", "LittleEndian")
+        self.endian = "<" if bo == "LittleEndian" else ">"
+        ht = root.get("header_type", "UInt32")
+        if ht not in ("UInt32", "UInt64"):
+            raise MeshReadError(f"{p}: unsupported VTP header_type {ht!r}; expected UInt32 or UInt64")
+        self.hdt = np.dtype(self.endian + _VTK_TYPES[ht])
+        comp = root.get("compressor")
+        if comp not in (None, "", "vtkZLibDataCompressor"):
+            raise MeshReadError(
+                f"{p}: unsupported VTP compressor {comp!r}; re-save with zlib compression or none"
+            )
+        self.compressed = bool(comp)
+        self.appended = appended
+        self.app_encoding = app_encoding
+
+    def array(self, da):
+        p = self.p
+        tname = da.get("type")
+        if tname not in _VTK_TYPES:
+            raise MeshReadError(f"{p}: unsupported VTP DataArray type {tname!r}")
+        dt = np.dtype(self.endian + _VTK_TYPES[tname])
+        fmt = da.get("format", "ascii")
+        if fmt == "ascii":
+            try:
+                a = np.array((da.text or "").split(), dtype=np.float64)
+            except ValueError as exc:
+                raise MeshReadError(f"{p}: bad number in ascii VTP DataArray ({exc})") from None
+            out = a.astype(dt.newbyteorder("=")) if dt.kind != "f" else a
+        elif fmt == "binary":
+            out = self._decode(re.sub(r"\s+", "", da.text or ""), dt, b64=True)
+        elif fmt == "appended":
+            if self.appended is None:
+                raise MeshReadError(f"{p}: DataArray is 'appended' but the VTP has no AppendedData")
+            off = int(da.get("offset", "0"))
+            out = self._decode(self.appended[off:], dt, b64=self.app_encoding == "base64")
+        else:
+            raise MeshReadError(f"{p}: unknown VTP DataArray format {fmt!r}")
+        ncomp = int(da.get("NumberOfComponents", "1"))
+        return np.asarray(out).reshape(-1, ncomp) if ncomp > 1 else np.asarray(out).reshape(-1)
+
+    def _decode(self, data, dt, b64):
+        """Decode one binary block (header + payload), base64 text or raw bytes."""
+        hs = self.hdt.itemsize
+        p = self.p
+
+        def take(pos, nbytes):
+            """(bytes, next position) of one separately encoded chunk."""
+            if not b64:
+                return data[pos:pos + nbytes], pos + nbytes
+            n = _b64chars(nbytes)
+            return _b64(data[pos:pos + n], p)[:nbytes], pos + n
+
+        if not self.compressed:
+            if b64:
+                first = _b64(data[:_b64chars(hs)], p)[:hs]
+            else:
+                first = data[:hs]
+            if len(first) < hs:
+                raise MeshReadError(f"{p}: truncated VTP binary DataArray; re-export the file")
+            nbytes = int(np.frombuffer(first, self.hdt)[0])
+            if b64:
+                sep = data[_b64chars(hs) - 1:_b64chars(hs)] == "="
+                if sep:  # header and payload base64-encoded separately
+                    raw, _ = take(_b64chars(hs), nbytes)
+                else:  # encoded together (VTK's default for uncompressed data)
+                    raw = _b64(data[:_b64chars(hs + nbytes)], p)[hs:hs + nbytes]
+            else:
+                raw = data[hs:hs + nbytes]
+            if len(raw) < nbytes:
+                raise MeshReadError(f"{p}: truncated VTP binary DataArray; re-export the file")
+            return np.frombuffer(raw, dt).copy()
+
+        # compressed: header [nblocks, blocksize, lastsize, csize_1..csize_nblocks]
+        first, _ = take(0, hs)
+        if len(first) < hs:
+            raise MeshReadError(f"{p}: truncated VTP compressed DataArray; re-export the file")
+        nb = int(np.frombuffer(first, self.hdt)[0])
+        head, pos = take(0, hs * (3 + nb))
+        if len(head) < hs * (3 + nb):
+            raise MeshReadError(f"{p}: truncated VTP compressed header; re-export the file")
+        h = np.frombuffer(head, self.hdt).astype(np.int64)
+        csizes = h[3:]
+        payload, _ = take(pos, int(csizes.sum()))
+        bounds = np.concatenate([[0], np.cumsum(csizes)])
+        try:
+            raw = b"".join(zlib.decompress(payload[a:b]) for a, b in zip(bounds[:-1], bounds[1:]))
+        except zlib.error as exc:
+            raise MeshReadError(f"{p}: corrupt zlib data in VTP file ({exc}); re-export it") from None
+        return np.frombuffer(raw, dt).copy()
+
+
+def _split_appended(raw):
+    """Cut the AppendedData section out of the file so the rest parses as XML."""
+    start = raw.find(b"<AppendedData")
+    if start < 0:
+        return raw, None, None
+    tag_end = raw.find(b">", start)
+    under = raw.find(b"_", tag_end)
+    close = raw.rfind(b"</AppendedData>")
+    if tag_end < 0 or under < 0 or close < under:
+        return raw, None, None
+    m = re.search(rb'encoding\s*=\s*"(\w+)"', raw[start:tag_end])
+    enc = m.group(1).decode() if m else "raw"
+    body = raw[under + 1:close]
+    if enc == "base64":
+        body = re.sub(rb"\s+", b"", body).decode("ascii")
+    xml = raw[:tag_end + 1] + raw[close:]
+    return xml, body, enc
+
+
+def _triangulate(conn, offsets, p, what="polygon"):
+    """Fan-triangulate polygons given by VTK connectivity + end offsets."""
+    conn = np.asarray(conn, dtype=np.int64).reshape(-1)
+    ends = np.asarray(offsets, dtype=np.int64).reshape(-1)
+    if len(ends) and ends[0] == 0:  # VTK >= 9 in-memory style with a leading 0
+        ends = ends[1:]
+    starts = np.concatenate([[0], ends[:-1]])
+    sizes = ends - starts
+    if np.any(sizes < 3) or (len(ends) and ends[-1] > len(conn)):
+        raise MeshReadError(
+            f"{p}: VTP {what}s with fewer than 3 vertices or bad offsets; re-export the surface"
+        )
+    ntri = sizes - 2
+    poly = np.repeat(np.arange(len(sizes)), ntri)
+    j = np.arange(ntri.sum()) - np.repeat(np.cumsum(ntri) - ntri, ntri) + 1
+    s = starts[poly]
+    return np.c_[conn[s], conn[s + j], conn[s + j + 1]]
+
+
+def _read_vtp(p):
+    """Parse a VTK XML PolyData file into ``(V, F, point_data)``."""
+    raw = Path(p).read_bytes()
+    xml, appended, enc = _split_appended(raw)
+    try:
+        root = ET.fromstring(xml)
+    except ET.ParseError as exc:
+        raise MeshReadError(f"{p}: not valid VTP XML ({exc}); re-export the file") from None
+    if root.tag != "VTKFile" or root.get("type") != "PolyData":
+        raise MeshReadError(
+            f"{p}: not a VTK PolyData file (root {root.tag} type {root.get('type')}); "
+            "export the surface as .vtp PolyData"
+        )
+    dec = _VtpDecoder(p, root, appended, enc)
+    pieces = root.findall("PolyData/Piece")
+    if not pieces:
+        raise MeshReadError(f"{p}: VTP file has no PolyData Piece; re-export the surface")
+    Vs, Fs, pdata, base = [], [], {}, 0
+    for piece in pieces:
+        npts = int(piece.get("NumberOfPoints", "0"))
+        if int(piece.get("NumberOfStrips", "0")) > 0:
+            raise MeshReadError(
+                f"{p}: triangle strips are not supported; convert them to polygons first "
+                "(e.g. vtkTriangleFilter) and save again"
+            )
+        pts = piece.find("Points/DataArray")
+        if pts is None:
+            raise MeshReadError(f"{p}: VTP Piece has no Points; re-export the surface")
+        V = dec.array(pts).astype(np.float64).reshape(-1, 3)
+        if len(V) != npts:
+            raise MeshReadError(
+                f"{p}: VTP Piece declares {npts} points but holds {len(V)}; the file is corrupt"
+            )
+        arrays = {da.get("Name"): da for da in piece.findall("Polys/DataArray")}
+        npolys = int(piece.get("NumberOfPolys", "0"))
+        if npolys > 0:
+            if "connectivity" not in arrays or "offsets" not in arrays:
+                raise MeshReadError(f"{p}: VTP Polys need 'connectivity' and 'offsets' arrays")
+            F = _triangulate(dec.array(arrays["connectivity"]), dec.array(arrays["offsets"]), p)
+        else:
+            F = np.zeros((0, 3), dtype=np.int64)
+        for da in piece.findall("PointData/DataArray"):
+            name = da.get("Name")
+            pdata.setdefault(name, []).append(dec.array(da))
+        Vs.append(V)
+        Fs.append(F + base)
+        base += len(V)
+    V = np.concatenate(Vs)
+    F = np.concatenate(Fs)
+    point_data = {k: np.concatenate(v) for k, v in pdata.items() if len(v) == len(pieces)}
+    return V, F, point_data
+
+
+# --------------------------------------------------------------------------- #
+# writing
+# --------------------------------------------------------------------------- #
+def write_mesh(path, V, F, vertex_colors=None, vertex_scalars=None):
+    """Write a triangle mesh atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file; the extension picks the format: ``.ply`` (binary little
+        endian), ``.obj``, ``.off``, ``.stl`` (binary) or ``.vtp`` (ascii XML).
+    V : (n, 3) float64
+        Vertex positions.
+    F : (m, 3) int64
+        Triangles.
+    vertex_colors : (n, 3) or (n, 4) float64 in [0, 1] or uint8, optional
+        Per-vertex RGB(A). Stored by PLY (uchar red/green/blue/alpha), VTP
+        (UInt8 point array "Colors"), OBJ (``v x y z r g b``) and OFF (COFF).
+    vertex_scalars : (n,) float64 or dict of str to (n,) float64, optional
+        Per-vertex scalars; a bare array is named ``"quality"``. Stored by PLY
+        (double vertex properties) and VTP (Float64 point arrays).
+
+    Raises
+    ------
+    MeshWriteError
+        Unknown extension, attributes of the wrong shape or not storable in the
+        format, or any I/O failure. Nothing is left behind and an existing
+        file at ``path`` is untouched.
+    InvalidMeshError
+        Malformed ``V`` or ``F``.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> p = os.path.join(tempfile.mkdtemp(), "tri.ply")
+    >>> V = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    >>> write_mesh(p, V, [[0, 1, 2]], vertex_scalars={"s": [1.0, 2.0, 3.0]})
+    >>> V2, F2 = read_mesh(p)
+    >>> bool(np.array_equal(V2, V)), F2.tolist()
+    (True, [[0, 1, 2]])
+    """
+    p = Path(os.fspath(path))
+    ext = p.suffix.lower()
+    if ext not in WRITE_FORMATS:
+        raise MeshWriteError(
+            f"{p}: unknown output extension {ext!r}; use one of {', '.join(WRITE_FORMATS)}"
+        )
+    V, F = as_mesh(V, F)
+    colors = _as_colors(vertex_colors, len(V), p)
+    reserved = {".ply": ("x", "y", "z") + (("red", "green", "blue", "alpha") if colors is not None else ()),
+                ".vtp": ("Colors",) if colors is not None else ()}.get(ext, ())
+    scalars = _as_scalars(vertex_scalars, len(V), p, reserved)
+    if scalars and ext not in (".ply", ".vtp"):
+        raise MeshWriteError(
+            f"{p}: {ext[1:].upper()} cannot store vertex scalars; write .ply or .vtp instead"
+        )
+    if colors is not None and ext == ".stl":
+        raise MeshWriteError(f"{p}: STL cannot store vertex colours; write .ply, .vtp, .obj or .off")
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise MeshWriteError(f"{p}: folder {folder} does not exist; create it first")
+    writer = {".ply": _write_ply, ".obj": _write_obj, ".off": _write_off,
+              ".stl": _write_stl, ".vtp": _write_vtp}[ext]
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise MeshWriteError(f"{p}: cannot create a file in {folder} ({exc}); check permissions") from None
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            writer(fh, V, F, colors, scalars)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, p)
+    except BaseException as exc:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        if not isinstance(exc, Exception):
+            raise
+        raise MeshWriteError(
+            f"{p}: writing failed ({type(exc).__name__}: {exc}); nothing was written, "
+            "any existing file is unchanged"
+        ) from exc
+    log.info("wrote %s: %d vertices, %d faces", p, len(V), len(F))
+
+
+def _as_colors(C, n, p):
+    if C is None:
+        return None
+    A = np.asarray(C)
+    if A.ndim != 2 or A.shape[0] != n or A.shape[1] not in (3, 4):
+        raise MeshWriteError(
+            f"{p}: vertex_colors must have shape ({n}, 3) or ({n}, 4), got {A.shape}"
+        )
+    if A.dtype == np.uint8:
+        return A
+    if np.issubdtype(A.dtype, np.floating):
+        if not np.all(np.isfinite(A)) or A.min() < 0 or A.max() > 1:
+            raise MeshWriteError(
+                f"{p}: float vertex_colors must lie in [0, 1]; scale them or pass uint8"
+            )
+        return np.round(A * 255).astype(np.uint8)
+    if np.issubdtype(A.dtype, np.integer) and A.size and (A.min() < 0 or A.max() > 255):
+        raise MeshWriteError(f"{p}: integer vertex_colors must lie in [0, 255]")
+    if np.issubdtype(A.dtype, np.integer):
+        return A.astype(np.uint8)
+    raise MeshWriteError(f"{p}: vertex_colors must be float in [0, 1] or uint8, got {A.dtype}")
+
+
+def _as_scalars(S, n, p, reserved):
+    if S is None:
+        return {}
+    items = S.items() if isinstance(S, dict) else [("quality", S)]
+    out = {}
+    for name, a in items:
+        if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+            raise MeshWriteError(
+                f"{p}: scalar name {name!r} is not a plain identifier; use letters, digits, '_'"
+            )
+        if name in reserved:
+            raise MeshWriteError(
+                f"{p}: scalar name {name!r} clashes with a coordinate or colour field; rename it"
+            )
+        try:
+            arr = np.asarray(a, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise MeshWriteError(f"{p}: vertex scalars {name!r} must be numeric") from None
+        if arr.shape != (n,):
+            raise MeshWriteError(
+                f"{p}: vertex scalars {name!r} must have shape ({n},), got {arr.shape}"
+            )
+        out[name] = arr
+    return out
+
+
+def _write_ply(fh, V, F, colors, scalars):
+    fields = [("x", "<f8"), ("y", "<f8"), ("z", "<f8")]
+    props = ["property double x", "property double y", "property double z"]
+    if colors is not None:
+        for c in ("red", "green", "blue", "alpha")[:colors.shape[1]]:
+            fields.append((c, "u1"))
+            props.append(f"property uchar {c}")
+    for name in scalars:
+        fields.append((name, "<f8"))
+        props.append(f"property double {name}")
+    vd = np.empty(len(V), dtype=fields)
+    vd["x"], vd["y"], vd["z"] = V.T
+    if colors is not None:
+        for k, c in enumerate(("red", "green", "blue", "alpha")[:colors.shape[1]]):
+            vd[c] = colors[:, k]
+    for name, a in scalars.items():
+        vd[name] = a
+    fd = np.empty(len(F), dtype=[("n", "u1"), ("v", "<i4", (3,))])
+    fd["n"] = 3
+    fd["v"] = F
+    header = "\n".join(
+        ["ply", "format binary_little_endian 1.0", "comment written by vesselgp",
+         f"element vertex {len(V)}", *props,
+         f"element face {len(F)}", "property list uchar int vertex_indices", "end_header"]
+    ) + "\n"
+    fh.write(header.encode("ascii"))
+    fh.write(vd.tobytes())
+    fh.write(fd.tobytes())
+
+
+def _write_obj(fh, V, F, colors, scalars):
+    fh.write(b"# written by vesselgp\n")
+    if colors is not None:
+        np.savetxt(fh, np.c_[V, colors[:, :3] / 255.0], fmt="v " + " ".join([_FLOAT_FMT] * 6))
+    else:
+        np.savetxt(fh, V, fmt="v " + " ".join([_FLOAT_FMT] * 3))
+    np.savetxt(fh, F + 1, fmt="f %d %d %d")
+
+
+def _write_off(fh, V, F, colors, scalars):
+    if colors is not None:
+        fh.write(f"COFF\n{len(V)} {len(F)} 0\n".encode())
+        C = colors if colors.shape[1] == 4 else np.c_[colors, np.full(len(V), 255, np.uint8)]
+        fmt = " ".join([_FLOAT_FMT] * 3 + ["%d"] * 4)
+        np.savetxt(fh, np.c_[V.astype(object), C.astype(object)], fmt=fmt)
+    else:
+        fh.write(f"OFF\n{len(V)} {len(F)} 0\n".encode())
+        np.savetxt(fh, V, fmt=_FLOAT_FMT)
+    np.savetxt(fh, F, fmt="3 %d %d %d")
+
+
+def _write_stl(fh, V, F, colors, scalars):
+    T = V[F]
+    N = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    nrm = np.linalg.norm(N, axis=1, keepdims=True)
+    N = np.divide(N, nrm, out=np.zeros_like(N), where=nrm > 0)
+    rec = np.zeros(len(F), dtype=[("n", "<f4", (3,)), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    rec["n"] = N
+    rec["v"] = T
+    header = b"binary STL written by vesselgp".ljust(80, b" ")
+    fh.write(header)
+    fh.write(np.uint32(len(F)).astype("<u4").tobytes())
+    fh.write(rec.tobytes())
+
+
+def _vtp_ascii_array(fh, vtype, name, A, ncomp=1, fmt=_FLOAT_FMT, cols=None):
+    comp = f' NumberOfComponents="{ncomp}"' if ncomp > 1 else ""
+    fh.write(f'        <DataArray type="{vtype}" Name="{name}"{comp} format="ascii">\n'.encode())
+    np.savetxt(fh, np.asarray(A).reshape(-1, cols or ncomp), fmt=fmt)
+    fh.write(b"        </DataArray>\n")
+
+
+def _write_vtp(fh, V, F, colors, scalars):
+    fh.write(b'<?xml version="1.0"?>\n'
+             b'<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" '
+             b'header_type="UInt64">\n  <PolyData>\n')
+    fh.write(f'    <Piece NumberOfPoints="{len(V)}" NumberOfVerts="0" NumberOfLines="0" '
+             f'NumberOfStrips="0" NumberOfPolys="{len(F)}">\n'.encode())
+    if colors is not None or scalars:
+        first = next(iter(scalars), None)
+        attr = f' Scalars="{first}"' if first else ""
+        fh.write(f"      <PointData{attr}>\n".encode())
+        for name, a in scalars.items():
+            _vtp_ascii_array(fh, "Float64", name, a)
+        if colors is not None:
+            _vtp_ascii_array(fh, "UInt8", "Colors", colors, colors.shape[1], "%d")
+        fh.write(b"      </PointData>\n")
+    fh.write(b"      <Points>\n")
+    _vtp_ascii_array(fh, "Float64", "Points", V, 3)
+    fh.write(b"      </Points>\n      <Polys>\n")
+    _vtp_ascii_array(fh, "Int64", "connectivity", F, 1, "%d", cols=3)
+    _vtp_ascii_array(fh, "Int64", "offsets", 3 * np.arange(1, len(F) + 1), 1, "%d")
+    fh.write(b"      </Polys>\n    </Piece>\n  </PolyData>\n</VTKFile>\n")
