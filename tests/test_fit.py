@@ -183,8 +183,11 @@ def close_holes(V, F):
     """Fan-fill every boundary loop (to test inside/outside of an open tube)."""
     Vs, Fs = [V], [F]
     n = len(V)
+    directed = {(int(a), int(b)) for f in F for a, b in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))}
     for loop in igl.boundary_loop_all(F):
         loop = np.asarray(loop)
+        if (int(loop[0]), int(loop[1])) in directed:  # the fan must run against the mesh's edge
+            loop = loop[::-1]
         c = V[loop].mean(axis=0)
         Vs.append(c[None])
         Fs.append(np.c_[loop, np.roll(loop, -1), np.full(len(loop), n)])
