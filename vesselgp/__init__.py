@@ -13,6 +13,7 @@ from .errors import *  # noqa: F401,F403
 from .curves import rotation_minimizing_frames, curve_tangents, frenet  # noqa: F401
 
 # Each stage adds its public names on its own line below.
+from .viz import torsion_colors, render_mesh, plot_energy_curve  # noqa: F401
 from .io import read_mesh, write_mesh  # noqa: F401
 from .mesh import clean_mesh, vessel_ends, mesh_scale, CleanReport, VesselEnd, MeshScale  # noqa: F401
 from .join import Frame, JoinProblem, JoinResult, minimize_torsion, stitch  # noqa: F401

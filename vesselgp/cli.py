@@ -1,0 +1,545 @@
+"""The ``vesselgp`` command: every stage of the toolkit from the shell.
+
+A thin layer over the library: argument parsing, calls into :mod:`vesselgp`,
+writing outputs (atomically, never over an input file), printing. Bad input
+(any :class:`vesselgp.VesselError`) ends with a one-line message
+``vesselgp: error: ...`` on stderr and exit code 2, as do usage errors.
+
+Examples
+--------
+>>> main(["--version"])  # doctest: +ELLIPSIS
+vesselgp ...
+0
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import tolerances as tol
+from .errors import MismatchError, VesselError
+
+log = logging.getLogger("vesselgp.cli")
+
+EPILOG = {
+    "main": """examples:
+  vesselgp demo                                   both paper cases -> ./vesselgp-demo/
+  vesselgp generate --curve arc --twist 0 -o arc  a synthetic vessel (vessel.ply, truth.json)
+  vesselgp fit vessel.stl -o fit                  axis.json/.csv/.vtp/.ply, shaded mesh
+  vesselgp torsion rest.ply deformed.ply -o tor   twist profile, energy, shaded mesh
+  vesselgp join vessel.ply --case case.json -o j  minimum-torsion end rotation, Fig. 2-4 outputs
+  vesselgp clean raw.stl -o cleaned               repaired mesh + report
+
+run 'vesselgp <command> --help' for the options of a command.""",
+    "fit": """examples:
+  vesselgp fit vessel.stl -o fit
+  vesselgp fit aorta.ply --ends 0 2 --axis-format vtp -o fit --json""",
+    "torsion": """examples:
+  vesselgp generate --curve straight --deformed-twist 90 -o gen
+  vesselgp torsion gen/vessel.ply gen/deformed.ply -o tor""",
+    "join": """examples:
+  vesselgp generate --paper-cases -o cases
+  vesselgp join cases/case1/vessel.ply --case cases/case1/case.json -o join1
+  vesselgp join v.ply --fixed 0-99 --moving @moving.txt --target-origin 40 2 0 \\
+      --target-tangent 1 0 0 --target-normal 0 0 1 -o join""",
+    "clean": """examples:
+  vesselgp clean segmentation.stl -o cleaned --json""",
+    "generate": """examples:
+  vesselgp generate --curve helix --radius 1.5 --twist 45 -o helix
+  vesselgp generate --curve arc --deformed-curve s_curve --deformed-twist 90 -o pair
+  vesselgp generate --paper-cases --resolution 0.5 -o cases""",
+    "demo": """examples:
+  vesselgp demo
+  vesselgp demo --resolution 0.5 -o quick-demo --overwrite""",
+}
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+class _Out:
+    """An output folder that refuses to be non-empty (unless overwrite) and never writes over inputs."""
+
+    def __init__(self, folder, inputs=(), overwrite=False):
+        self.dir = Path(folder)
+        self.inputs = [Path(p) for p in inputs if p is not None]
+        if self.dir.exists() and not self.dir.is_dir():
+            raise VesselError(f"output {self.dir} exists and is not a folder; choose another -o")
+        if self.dir.is_dir() and any(self.dir.iterdir()) and not overwrite:
+            raise VesselError(f"output folder {self.dir} exists and is not empty; pass --overwrite or choose another -o")
+        for p in self.inputs:
+            if p.exists() and p.resolve() == self.dir.resolve():
+                raise VesselError(f"output folder {self.dir} is an input; choose another -o")
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.files = []
+
+    def __call__(self, name):
+        p = self.dir / name
+        for q in self.inputs:
+            if p.resolve() == q.resolve() or (p.exists() and q.exists() and os.path.samefile(p, q)):
+                raise VesselError(f"refusing to overwrite input file {q}; choose another -o")
+        self.files.append(str(p))
+        return p
+
+
+def _ids(text, name):
+    """Vertex ids from '0,3,7-12' or '@file' (JSON list or whitespace/comma separated)."""
+    text = str(text).strip()
+    if text.startswith("@"):
+        path = Path(text[1:])
+        try:
+            raw = path.read_text()
+        except OSError as exc:
+            raise VesselError(f"--{name}: cannot read {path} ({exc.strerror})") from None
+        try:
+            return np.asarray(json.loads(raw), np.int64).reshape(-1)
+        except (ValueError, TypeError):
+            text = raw.replace("\n", ",").replace(" ", ",")
+    out = []
+    for part in filter(None, (p.strip() for p in text.split(","))):
+        try:
+            if "-" in part[1:]:
+                a, b = part.split("-", 1) if not part.startswith("-") else (part, "")
+                out.extend(range(int(a), int(b) + 1))
+            else:
+                out.append(int(part))
+        except ValueError:
+            raise VesselError(f"--{name}: {part!r} is not a vertex id or range like 3-7") from None
+    if not out:
+        raise VesselError(f"--{name}: no vertex ids given")
+    return np.asarray(out, np.int64)
+
+
+def _read(path):
+    from .io import read_mesh
+
+    return read_mesh(path)
+
+
+def _progress(args):
+    return (not args.quiet) and sys.stderr.isatty()
+
+
+def _emit(args, summary, text):
+    from .demo import to_json
+
+    if args.json:
+        print(json.dumps(to_json(summary), indent=2, allow_nan=False))
+    elif not args.quiet:
+        print(text)
+
+
+def _files_text(out):
+    return "\n".join(f"  {f}" for f in out.files)
+
+
+# ----------------------------------------------------------------------------- subcommands
+
+
+def cmd_fit(args):
+    from .demo import fit_vessel, gc_to_dict, write_csv, write_json
+    from .io import write_mesh
+    from .viz import render_mesh, torsion_colors, write_polyline
+
+    V, F = _read(args.mesh)
+    out = _Out(args.output, [args.mesh], args.overwrite)
+    t0 = time.perf_counter()
+    if args.nodes is not None or args.ends is not None:
+        from .fit import fit_generalized_cylinder
+
+        gc = fit_generalized_cylinder(V, F, ends=args.ends, n_nodes=args.nodes)
+    else:
+        gc = fit_vessel(V, F)
+    dt = time.perf_counter() - t0
+    d = gc_to_dict(gc, units=args.units)
+    d["bbox_diagonal"] = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    d["input"] = str(args.mesh)
+    d["time_s"] = dt
+    write_json(out("axis.json"), d)
+    arc = gc.s * gc.length
+    fr = gc.frames
+    write_csv(out("axis.csv"), {
+        "s": gc.s, "arclength": arc, "x": gc.centers[:, 0], "y": gc.centers[:, 1], "z": gc.centers[:, 2],
+        "radius": gc.radii, "Tx": fr[:, 0, 0], "Ty": fr[:, 0, 1], "Tz": fr[:, 0, 2],
+        "Ux": fr[:, 1, 0], "Uy": fr[:, 1, 1], "Uz": fr[:, 1, 2], "Vx": fr[:, 2, 0], "Vy": fr[:, 2, 1],
+        "Vz": fr[:, 2, 2]})
+    pdata = {"s": gc.s, "radius": gc.radii, "T": fr[:, 0], "U": fr[:, 1], "V": fr[:, 2]}
+    for ext in (("vtp", "ply") if args.axis_format == "both" else (args.axis_format,)):
+        write_polyline(out(f"axis.{ext}"), gc.centers, pdata)
+    if args.shade != "none":
+        if args.shade == "theta":
+            val, lo, hi, cmap, label = np.degrees(gc.vertex_theta), -180.0, 180.0, "twilight", "angle \u03b8 about the axis (deg)"
+        else:
+            val = np.hypot(gc.vertex_local[:, 1], gc.vertex_local[:, 2])
+            lo, hi, cmap, label = float(val.min()), float(val.max()), "viridis", f"distance to the axis ({args.units})"
+        name = f"mesh_{args.shade}"
+        write_mesh(out(name + ".ply"), V, F, vertex_colors=torsion_colors(val, lo, hi, cmap),
+                   vertex_scalars={args.shade: val, "s": gc.vertex_s})
+        if not args.no_png:
+            render_mesh(out(name + ".png"), V, F, val, vmin=lo, vmax=hi, cmap=cmap, cbar_label=label,
+                        title=f"{Path(args.mesh).name}: generalized cylinder, length {gc.length:.4g}, "
+                              f"mean radius {gc.mean_radius:.3g}")
+    summary = {"command": "fit", "length": gc.length, "mean_radius": gc.mean_radius, "n_nodes": len(gc.s),
+               "iterations": gc.iterations, "time_s": dt, "files": out.files}
+    _emit(args, summary, f"fitted axis: length {gc.length:.4g}, mean radius {gc.mean_radius:.4g}, "
+                         f"{len(gc.s)} nodes, {gc.iterations} iterations, {dt:.2f} s\n{_files_text(out)}")
+    return 0
+
+
+def cmd_torsion(args):
+    from .demo import fit_vessel, profile_to_dict, write_csv, write_json
+    from .io import write_mesh
+    from .torsion import TorsionMeter
+    from .viz import plot_torsion_profile, render_mesh, torsion_colors
+
+    V0, F0 = _read(args.rest)
+    V1, F1 = _read(args.deformed)
+    if V0.shape != V1.shape or F0.shape != F1.shape or not np.array_equal(F0, F1):
+        raise MismatchError(f"rest ({len(V0)} vertices, {len(F0)} faces) and deformed ({len(V1)} vertices, "
+                            f"{len(F1)} faces) meshes must share vertices and faces")
+    out = _Out(args.output, [args.rest, args.deformed], args.overwrite)
+    t0 = time.perf_counter()
+    meter = TorsionMeter(V0, F0, fit_vessel(V0, F0), smoothing=args.smoothing)
+    prof = meter(V1)
+    dt = time.perf_counter() - t0
+    d = {"command": "torsion", "rest": str(args.rest), "deformed": str(args.deformed), "time_s": dt,
+         **profile_to_dict(prof)}
+    write_json(out("profile.json"), d)
+    write_csv(out("profile.csv"), {"s": prof.s, "alpha_deg": np.degrees(prof.alpha),
+                                   "dalpha_deg": np.degrees(prof.dalpha), "curvature": prof.curvature,
+                                   "frenet_torsion": np.where(prof.frenet_defined, prof.frenet_torsion, np.nan)})
+    al = np.degrees(prof.vertex_alpha)
+    write_mesh(out("deformed_twist.ply"), V1, F1, vertex_colors=torsion_colors(al),
+               vertex_scalars={"alpha_deg": al})
+    if not args.no_png:
+        render_mesh(out("deformed_twist.png"), V1, F1, al,
+                    title=f"twist {np.degrees(prof.total_twist):.1f}\u00b0, E = {prof.energy:.3g} (Eq. 8)")
+        plot_torsion_profile(out("profile.png"), prof)
+    summary = {"command": "torsion", "energy": prof.energy, "total_twist_deg": np.degrees(prof.total_twist),
+               "twist_per_length_deg": np.degrees(prof.twist_per_length), "length": prof.length,
+               "time_s": dt, "files": out.files}
+    _emit(args, summary, f"torsion energy {prof.energy:.4g} (Eq. 8), total twist "
+                         f"{np.degrees(prof.total_twist):.2f} deg, {dt:.2f} s\n{_files_text(out)}")
+    return 0
+
+
+def cmd_join(args):
+    from .demo import case_from_dict, run_join, summary_table, write_json
+    from .join import Frame
+
+    V, F = _read(args.vessel)
+    inputs = [args.vessel, args.case, args.other]
+    other_end = None
+    if args.case is not None:
+        try:
+            d = json.loads(Path(args.case).read_text())
+        except OSError as exc:
+            raise VesselError(f"cannot read case file {args.case} ({exc.strerror})") from None
+        except ValueError as exc:
+            raise VesselError(f"case file {args.case} is not valid JSON ({exc})") from None
+        if not isinstance(d, dict):
+            raise VesselError(f"case file {args.case} must hold a JSON object")
+        fixed, moving, target, other_end = case_from_dict(d, len(V))
+        if args.other is None and (Path(args.case).parent / "other.ply").exists():
+            args.other = str(Path(args.case).parent / "other.ply")
+            inputs.append(args.other)
+    else:
+        need = {"--fixed": args.fixed, "--moving": args.moving, "--target-origin": args.target_origin,
+                "--target-tangent": args.target_tangent, "--target-normal": args.target_normal}
+        missing = [k for k, v in need.items() if v is None]
+        if missing:
+            raise VesselError(f"give --case or all of {', '.join(need)} (missing {', '.join(missing)})")
+        fixed, moving = _ids(args.fixed, "fixed"), _ids(args.moving, "moving")
+        target = Frame(args.target_origin, args.target_tangent, args.target_normal)
+    if args.other_end is not None:
+        other_end = _ids(args.other_end, "other-end")
+    other = None
+    if args.other is not None:
+        Vo, Fo = _read(args.other)
+        other = (Vo, Fo, other_end)
+    out = _Out(args.output, inputs, args.overwrite)
+    for name in ("optimum.ply", "large_torsion.ply", "energy_curve.csv", "result.json", "joined_optimum.ply",
+                 "optimum.png", "large_torsion.png", "energy_curve.png", "profile_optimum.png",
+                 "profile_large_torsion.png"):
+        out(name)  # refuses names that are inputs
+    out.files.clear()
+    r = run_join(out.dir, V, F, fixed, moving, target, other=other, name=Path(args.vessel).stem,
+                 n_curve=args.n_curve, curve_range_deg=args.range, large_deg=args.large, method=args.method,
+                 progress=_progress(args), render=not args.no_png)
+    r = {"command": "join", "vessel": str(args.vessel), **r}
+    write_json(out("result.json"), r)
+    out.files.extend(str(out.dir / f) for f in r["files"].values())
+    summary = {k: r[k] for k in ("optimum_angle_deg", "energy", "total_twist_deg", "n_evals", "status",
+                                 "setup_time_s", "time_s")}
+    summary.update(command="join", large_torsion=r["large_torsion"], files=out.files)
+    _emit(args, summary, summary_table([r]) + "\n" + _files_text(out))
+    return 0
+
+
+def cmd_clean(args):
+    from dataclasses import asdict
+
+    from .demo import write_json
+    from .io import write_mesh
+
+    try:
+        from .mesh import clean_mesh
+    except ImportError as exc:
+        raise VesselError(f"mesh cleaning is not available in this installation ({exc})") from None
+    V, F = _read(args.mesh)
+    out = _Out(args.output, [args.mesh], args.overwrite)
+    V2, F2, rep = clean_mesh(V, F)
+    name = f"{Path(args.mesh).stem}_clean.{args.format}"
+    write_mesh(out(name), V2, F2)
+    d = {k: v for k, v in asdict(rep).items() if k != "vertex_map"}
+    d["summary"] = rep.summary()
+    d["input"] = str(args.mesh)
+    try:
+        from .mesh import mesh_scale
+
+        sc = mesh_scale(V2, F2)
+        d["scale"] = {"median_edge": sc.median_edge, "bbox_diagonal": sc.bbox_diagonal,
+                      "units_guess": sc.units_guess, "warning": sc.warning}
+    except (ImportError, AttributeError, VesselError) as exc:  # optional information
+        log.debug("mesh_scale unavailable: %s", exc)
+    write_json(out("clean_report.json"), d)
+    _emit(args, {"command": "clean", **d, "files": out.files}, rep.summary() + "\n" + _files_text(out))
+    return 0
+
+
+def cmd_generate(args):
+    from .demo import case_to_dict, to_json, write_json
+    from .io import write_mesh
+    from .synthetic import deform_synthetic, paper_case, synthetic_vessel
+
+    out = _Out(args.output, [], args.overwrite)
+    if args.paper_cases:
+        info = []
+        for n in (1, 2):
+            c = paper_case(n, resolution=args.resolution, seed=args.seed, noise=args.noise,
+                           pre_rotation=np.radians(args.pre_rotation))
+            sub = out.dir / f"case{n}"
+            sub.mkdir(exist_ok=True)
+            write_mesh(out(f"case{n}/vessel.ply"), c.V, c.F)
+            write_mesh(out(f"case{n}/other.ply"), c.other_V, c.other_F)
+            write_json(out(f"case{n}/case.json"), case_to_dict(c, args.resolution), indent=None)
+            info.append({"case": n, "name": c.name, "n_vertices": len(c.V), "other_n_vertices": len(c.other_V)})
+        text = "\n".join(f"case {i['case']} ({i['name']}): {i['n_vertices']} + {i['other_n_vertices']} vertices"
+                         for i in info)
+        _emit(args, {"command": "generate", "cases": info, "files": out.files}, text + "\n" + _files_text(out))
+        return 0
+    twist = None if args.twist is None else np.radians(args.twist)
+    v = synthetic_vessel(args.curve, radius=args.radius, twist=twist, ends=args.ends, n_around=args.n_around,
+                         remesh=not args.no_remesh, noise=args.noise, seed=args.seed,
+                         ellipticity=args.ellipticity)
+    write_mesh(out(f"vessel.{args.format}"), v.V, v.F)
+    t = v.truth
+    truth = {"name": t.name, "units": t.units, "length": t.length, "s": t.s[::10], "centers": t.centers[::10],
+             "radii": t.radii[::10], "alpha_deg": np.degrees(t.alpha[::10]), "n_vertices": len(v.V),
+             "n_faces": len(v.F), "radius": args.radius, "twist_deg": args.twist, "ends": args.ends}
+    summary = {"command": "generate", "curve": t.name, "n_vertices": len(v.V), "length": t.length}
+    if args.deformed_curve is not None or args.deformed_twist is not None:
+        dtw = None if args.deformed_twist is None else np.radians(args.deformed_twist)
+        Vd = deform_synthetic(v, args.deformed_curve, twist=dtw)
+        write_mesh(out(f"deformed.{args.format}"), Vd, v.F)
+        truth["deformed"] = {"curve": args.deformed_curve, "twist_deg": args.deformed_twist}
+        summary["deformed_twist_deg"] = args.deformed_twist
+    write_json(out("truth.json"), truth)
+    summary["files"] = out.files
+    _emit(args, to_json(summary), f"{t.name} vessel: {len(v.V)} vertices, length {t.length:.4g} {t.units}\n"
+                                  + _files_text(out))
+    return 0
+
+
+def cmd_demo(args):
+    from .demo import run_demo, summary_table
+
+    out = _Out(args.output, [], args.overwrite)
+    t0 = time.perf_counter()
+    rep = run_demo(out.dir, resolution=args.resolution, n_curve=args.n_curve, progress=_progress(args),
+                   render=not args.no_png, pre_rotation=np.radians(args.pre_rotation))
+    dt = time.perf_counter() - t0
+    files = [str(out.dir / "report.json")] + [str(out.dir / f) for c in rep["cases"] for f in c["files"].values()]
+    summary = {"command": "demo", "output": str(out.dir), "total_time_s": dt,
+               "cases": [{k: c[k] for k in ("case", "name", "optimum_angle_deg", "energy", "n_evals",
+                                            "setup_time_s", "time_s")} for c in rep["cases"]],
+               "files": files}
+    _emit(args, summary, "vesselgp demo: the paper's two joining cases (Section 3) on generated vessels\n"
+                         + summary_table(rep["cases"])
+                         + f"\ntotal {dt:.1f} s; figures, meshes and report.json in {out.dir}/")
+    return 0
+
+
+# ----------------------------------------------------------------------------- parser
+
+
+def _common(p, default_out):
+    p.add_argument("-o", "--output", default=default_out, metavar="DIR",
+                   help=f"output folder (default: ./{default_out}); must be new or empty unless --overwrite")
+    p.add_argument("--overwrite", action="store_true", help="write into an existing non-empty output folder")
+    p.add_argument("--json", action="store_true", help="print a machine-readable JSON summary on stdout")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars, no summary text")
+    p.add_argument("-v", "--verbose", action="count", default=0, help="log progress (-vv: debug)")
+
+
+def build_parser():
+    """The ``argparse`` parser of the ``vesselgp`` command."""
+    from . import __version__
+
+    fmt = argparse.RawDescriptionHelpFormatter
+    ap = argparse.ArgumentParser(
+        prog="vesselgp", formatter_class=fmt, epilog=EPILOG["main"],
+        description="Torsion of blood vessels: generalized-cylinder fit, material torsion against a "
+                    "rotation-minimizing frame, minimum-torsion joining.")
+    ap.add_argument("--version", action="version", version=f"vesselgp {__version__}")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser("fit", help="fit a generalized cylinder (axis, radius, frames) to a vessel mesh",
+                       description="Fit a generalized cylinder (paper Eq. 1-5): axis, radius, "
+                                   "rotation-minimizing frames.", formatter_class=fmt, epilog=EPILOG["fit"])
+    p.add_argument("mesh", help="vessel mesh (.stl .ply .obj .off .vtp)")
+    p.add_argument("--ends", type=int, nargs=2, metavar=("I", "J"),
+                   help="indices of the two ends to fit between (for meshes with more than two ends)")
+    p.add_argument("--nodes", type=int, help="number of axis nodes (default: one per half radius)")
+    p.add_argument("--axis-format", choices=("vtp", "ply", "both"), default="both",
+                   help="polyline file(s) of the axis (default: both)")
+    p.add_argument("--shade", choices=("theta", "radius", "none"), default="theta",
+                   help="write the mesh coloured by angle about the axis or by distance to it (default: theta)")
+    p.add_argument("--units", default="mesh units", help="length unit label for the report")
+    p.add_argument("--no-png", action="store_true", help="do not render PNGs")
+    _common(p, "vesselgp-fit")
+    p.set_defaults(func=cmd_fit)
+
+    p = sub.add_parser("torsion", help="material torsion of a deformed vessel (profile, energy, shaded mesh)",
+                       description="Material torsion of a deformed vessel against its RMF (paper Eq. 6-8).",
+                       formatter_class=fmt, epilog=EPILOG["torsion"])
+    p.add_argument("rest", help="rest mesh")
+    p.add_argument("deformed", help="deformed mesh (same vertices and faces)")
+    p.add_argument("--smoothing", type=float, default=tol.TORSION_SMOOTHING,
+                   help="smoothing length of alpha(s) in axis-node spacings (default: %(default)s)")
+    p.add_argument("--no-png", action="store_true", help="do not render PNGs")
+    _common(p, "vesselgp-torsion")
+    p.set_defaults(func=cmd_torsion)
+
+    p = sub.add_parser("join", help="join a vessel end to a target with the least torsion",
+                       description="Minimum-torsion joining (paper Section 2.3): the end rotation of least "
+                                   "torsion energy, shaded meshes at the optimum and at large torsion, the "
+                                   "energy curve (Fig. 4).", formatter_class=fmt, epilog=EPILOG["join"])
+    p.add_argument("vessel", help="mesh of the vessel that is deformed")
+    p.add_argument("--case", help="case.json (as written by 'vesselgp generate --paper-cases' or "
+                                  "data_gen/make_paper_cases.py); its folder's other.ply is used if present")
+    p.add_argument("--fixed", help="held vertex ids: '0,5,10-99' or @file")
+    p.add_argument("--moving", help="vertex ids of the joined end ring: '...' or @file")
+    p.add_argument("--target-origin", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="where the joined end's centre goes")
+    p.add_argument("--target-tangent", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="axis direction at the joined end, out of the vessel")
+    p.add_argument("--target-normal", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="where the end's rest normal U goes at rotation 0 (the anchor)")
+    p.add_argument("--other", help="mesh of the vessel joined to (drawn grey; stitched with --other-end)")
+    p.add_argument("--other-end", help="vertex ids of the other vessel's end ring, for the stitched mesh")
+    p.add_argument("--n-curve", type=int, default=tol.DEMO_CURVE_POINTS,
+                   help="points of the energy curve (default: %(default)s)")
+    p.add_argument("--range", type=float, default=tol.DEMO_CURVE_RANGE_DEG,
+                   help="half-width of the energy curve about the optimum, degrees (default: %(default)s)")
+    p.add_argument("--large", type=float, default=tol.DEMO_LARGE_TORSION_DEG,
+                   help="rotation from the optimum of the large-torsion mesh, degrees (default: %(default)s)")
+    p.add_argument("--method", default="rod_arap", choices=("rod_arap", "rod", "arap", "laplacian"),
+                   help="deformation method (default: %(default)s)")
+    p.add_argument("--no-png", action="store_true", help="do not render PNGs")
+    _common(p, "vesselgp-join")
+    p.set_defaults(func=cmd_join)
+
+    p = sub.add_parser("clean", help="repair a mesh (duplicates, non-manifold parts, small pieces)",
+                       description="Repair a segmented vessel mesh and keep its largest piece.",
+                       formatter_class=fmt, epilog=EPILOG["clean"])
+    p.add_argument("mesh", help="input mesh")
+    p.add_argument("--format", choices=("ply", "stl", "obj", "off", "vtp"), default="ply",
+                   help="format of the cleaned mesh (default: ply)")
+    _common(p, "vesselgp-clean")
+    p.set_defaults(func=cmd_clean)
+
+    p = sub.add_parser("generate", help="synthetic vessels with known axis and twist, or the paper's cases",
+                       description="Generate synthetic vessels swept with the RMF (exact ground truth), "
+                                   "or the paper's two joining cases.", formatter_class=fmt,
+                       epilog=EPILOG["generate"])
+    p.add_argument("--curve", default="arc", help="centre line: straight, arc, helix, s_curve, aortic_arch, "
+                                                  "aortic_root (default: arc)")
+    p.add_argument("--radius", type=float, default=1.5, help="section radius (default: 1.5)")
+    p.add_argument("--ellipticity", type=float, default=1.0, help="section axis ratio (default: 1)")
+    p.add_argument("--twist", type=float, help="material twist from end to end, degrees")
+    p.add_argument("--ends", choices=("open", "capped"), default="open")
+    p.add_argument("--n-around", type=int, default=48, help="points per ring (default: 48)")
+    p.add_argument("--no-remesh", action="store_true", help="keep the structured ring mesh")
+    p.add_argument("--noise", type=float, default=0.0, help="normal noise, fraction of the radius")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--deformed-curve", help="also write deformed.<fmt>: the vessel moved onto this curve")
+    p.add_argument("--deformed-twist", type=float, help="... with this twist, degrees (also without a curve)")
+    p.add_argument("--format", choices=("ply", "stl", "obj", "off", "vtp"), default="ply")
+    p.add_argument("--paper-cases", action="store_true", help="write the paper's cases to case1/, case2/")
+    p.add_argument("--resolution", type=float, default=1.0, help="paper cases: resolution multiplier")
+    p.add_argument("--pre-rotation", type=float, default=0.0, help="paper cases: anchor error, degrees")
+    _common(p, "vesselgp-generate")
+    p.set_defaults(func=cmd_generate)
+
+    p = sub.add_parser("demo", help="run both paper cases on generated data (figures, report, table)",
+                       description="Run the paper's two joining cases (Section 3) on generated vessels and "
+                                   "write torsion-shaded meshes (PLY) and renders (PNG) at the optimum and at "
+                                   "large torsion (Figs. 2-3), the energy curves (Fig. 4) and report.json.",
+                       formatter_class=fmt, epilog=EPILOG["demo"])
+    p.add_argument("--resolution", type=float, default=1.0,
+                   help="mesh resolution multiplier (default: 1; 0.5 for a quick run)")
+    p.add_argument("--n-curve", type=int, default=tol.DEMO_CURVE_POINTS,
+                   help="points of each energy curve (default: %(default)s)")
+    p.add_argument("--pre-rotation", type=float, default=0.0, help="anchor error, degrees (default: 0)")
+    p.add_argument("--no-png", action="store_true", help="do not render PNGs")
+    _common(p, "vesselgp-demo")
+    p.set_defaults(func=cmd_demo)
+    return ap
+
+
+def _one_line(msg):
+    return " ".join(str(msg).split())
+
+
+def main(argv=None):
+    """Entry point of the ``vesselgp`` command; returns the exit code.
+
+    0 on success, 2 on bad input (one line ``vesselgp: error: ...`` on stderr)
+    or a usage error, 1 on an I/O failure outside the input's control, 130 on Ctrl-C.
+    """
+    ap = build_parser()
+    try:
+        args = ap.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, usage errors (argparse prints them)
+        return int(exc.code or 0)
+    if args.command is None:
+        ap.print_help()
+        return 2
+    level = logging.WARNING if args.verbose == 0 else (logging.INFO if args.verbose == 1 else logging.DEBUG)
+    if args.quiet:
+        level = logging.ERROR
+    logging.basicConfig(level=level, format="vesselgp: %(message)s", stream=sys.stderr)
+    logging.getLogger("vesselgp").setLevel(level)
+    try:
+        return int(args.func(args) or 0)
+    except VesselError as exc:
+        print(f"vesselgp: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("vesselgp: interrupted", file=sys.stderr)
+        return 130
+    except OSError as exc:
+        print(f"vesselgp: error: {_one_line(exc)}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,549 @@
+"""Headless figures: torsion-shaded meshes, energy curves, torsion profiles.
+
+Everything renders with matplotlib's Agg backend (no display needed) and is
+written atomically (temporary file in the target folder, then
+:func:`os.replace`), like :func:`vesselgp.io.write_mesh`.
+
+* :func:`torsion_colors` maps per-vertex twist to RGB (symmetric range about 0).
+* :func:`render_mesh` draws a mesh side-on (camera from its principal axes),
+  flat-shaded per face, with a colour bar in degrees (paper Figs. 2-3).
+* :func:`plot_energy_curve` draws the torsion energy (Eq. 8) against the end
+  rotation with the optimum marked and a quadratic fit (paper Fig. 4).
+* :func:`plot_torsion_profile` draws ``alpha(s)`` (Eq. 7) and ``alpha'(s)``.
+
+Angles are radians in the API and degrees in every figure.
+"""
+from __future__ import annotations
+
+import logging
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from . import tolerances as tol
+from ._validate import as_mesh
+from .errors import MeshWriteError, VesselError
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "atomic_write",
+    "torsion_colors",
+    "render_mesh",
+    "plot_energy_curve",
+    "plot_torsion_profile",
+    "view_basis",
+    "write_polyline",
+]
+
+# Figure layout (not numerical tolerances): tallest mesh render in inches, and the
+# largest height/width ratio for which a render keeps world +z upright.
+_MAX_HEIGHT = 7.0
+_MAX_UPRIGHT_ASPECT = 2.5
+
+
+def _mpl():
+    """matplotlib with the Agg backend (headless), imported lazily."""
+    import matplotlib
+
+    if matplotlib.get_backend().lower() != "agg":
+        matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    return matplotlib, plt
+
+
+def atomic_write(path, writer, *, binary=False):
+    """Write a file atomically: ``writer(fh)`` fills a temporary file, then it is renamed.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination; its folder must exist.
+    writer : callable
+        Called with an open file object (text, UTF-8, or binary).
+    binary : bool
+        Open the temporary file in binary mode.
+
+    Raises
+    ------
+    MeshWriteError
+        The folder is missing or the write failed; nothing is left behind and
+        an existing file at ``path`` is untouched.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> p = os.path.join(tempfile.mkdtemp(), "a.txt")
+    >>> atomic_write(p, lambda fh: fh.write("hello\\n"))
+    >>> open(p).read()
+    'hello\\n'
+    """
+    p = Path(os.fspath(path))
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise MeshWriteError(f"{p}: folder {folder} does not exist; create it first")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise MeshWriteError(f"{p}: cannot create a file in {folder} ({exc}); check permissions") from None
+    try:
+        if binary:
+            fh = os.fdopen(fd, "wb")
+        else:
+            fh = os.fdopen(fd, "w", encoding="utf-8", newline="\n")
+        with fh:
+            writer(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, p)
+    except BaseException as exc:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        if not isinstance(exc, Exception) or isinstance(exc, VesselError):
+            raise
+        raise MeshWriteError(f"{p}: writing failed ({type(exc).__name__}: {exc}); nothing was written") from exc
+
+
+def _umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _symmetric_range(values, vmin, vmax):
+    v = np.asarray(values, float)
+    fin = v[np.isfinite(v)]
+    if vmin is None and vmax is None:
+        m = float(np.max(np.abs(fin))) if fin.size else 0.0
+        m = m if m > tol.VIZ_MIN_RANGE else tol.VIZ_MIN_RANGE
+        return -m, m
+    lo = float(np.min(fin)) if vmin is None and fin.size else (0.0 if vmin is None else float(vmin))
+    hi = float(np.max(fin)) if vmax is None and fin.size else (lo + 1.0 if vmax is None else float(vmax))
+    if not hi > lo:
+        hi = lo + tol.VIZ_MIN_RANGE
+    return lo, hi
+
+
+def torsion_colors(values, vmin=None, vmax=None, cmap="coolwarm"):
+    """Per-vertex RGB colours of a signed quantity (twist), symmetric about 0 by default.
+
+    Parameters
+    ----------
+    values : (n,) float64
+        Per-vertex values (e.g. :attr:`vesselgp.TorsionProfile.vertex_alpha` in degrees).
+    vmin, vmax : float, optional
+        Colour range. When both are omitted the range is ``[-m, m]`` with
+        ``m = max |values|``, so zero twist is always the neutral colour.
+    cmap : str
+        Matplotlib colormap name (diverging: ``"coolwarm"``).
+
+    Returns
+    -------
+    (n, 3) uint8
+        RGB; NaN values are grey.
+
+    Examples
+    --------
+    >>> c = torsion_colors([-1.0, 0.0, 1.0])
+    >>> c.shape, c.dtype.name
+    ((3, 3), 'uint8')
+    >>> bool(c[0, 2] > c[0, 0] and c[2, 0] > c[2, 2])  # negative blue, positive red
+    True
+    """
+    mpl, _ = _mpl()
+    v = np.asarray(values, float).reshape(-1)
+    lo, hi = _symmetric_range(v, vmin, vmax)
+    t = np.clip((v - lo) / (hi - lo), 0.0, 1.0)
+    rgba = mpl.colormaps[cmap](np.where(np.isfinite(t), t, 0.5))
+    rgb = np.round(rgba[:, :3] * 255).astype(np.uint8)
+    rgb[~np.isfinite(v)] = 128
+    return rgb
+
+
+def view_basis(V, view=None):
+    """Orthographic camera for a mesh: screen right, screen up, towards the viewer.
+
+    By default the viewer looks along the mesh's smallest principal axis (the
+    vessel seen side-on, its bend in the picture plane), with world +z pointing
+    up when it lies near the picture plane, else the longest axis horizontal.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    view : None or (3,) float64
+        Direction from the mesh towards the viewer (overrides the principal axis).
+
+    Returns
+    -------
+    (3, 3) float64
+        Rows ``right, up, toward`` (right-handed, orthonormal).
+    """
+    P = np.asarray(V, float)
+    X = P - P.mean(axis=0)
+    if view is None:
+        _, _, Wt = np.linalg.svd(X, full_matrices=False)
+        w = Wt[2]
+        longest = Wt[0]
+    else:
+        w = np.asarray(view, float).reshape(3)
+        if not np.linalg.norm(w) > 0:
+            raise VesselError("view direction must be a non-zero 3-vector")
+        longest = None
+    w = w / np.linalg.norm(w)
+    if view is None and w[np.argmax(np.abs(w))] < 0:
+        w = -w
+    z = np.array([0.0, 0.0, 1.0])
+    up = z - (z @ w) * w
+    use_z = np.linalg.norm(up) >= tol.VIZ_UP_TOLERANCE
+    if use_z and view is None:
+        # keep world z up only if the picture is not much taller than wide
+        u = up / np.linalg.norm(up)
+        r = np.cross(u, w)
+        use_z = np.ptp(X @ u) <= _MAX_UPRIGHT_ASPECT * np.ptp(X @ r)
+    if use_z and view is None and np.cross(up / np.linalg.norm(up), w)[0] < 0:
+        w = -w  # world +x towards the right when it lies in the picture
+    if not use_z:
+        if longest is None:
+            longest = np.eye(3)[int(np.argmin(np.abs(w)))]
+        right = longest - (longest @ w) * w
+        right /= np.linalg.norm(right)
+        up = np.cross(w, right)
+    up /= np.linalg.norm(up)
+    right = np.cross(up, w)
+    return np.stack([right, up, w])
+
+
+def _decimate(V, F, scalars, max_faces):
+    """Quadric edge collapse to about ``max_faces`` faces; scalars follow the nearest vertex."""
+    try:
+        import pymeshlab
+        from scipy.spatial import cKDTree
+
+        ms = pymeshlab.MeshSet()
+        ms.add_mesh(pymeshlab.Mesh(V, F))
+        ms.meshing_decimation_quadric_edge_collapse(targetfacenum=int(max_faces), preservetopology=True)
+        m = ms.current_mesh()
+        V2 = np.asarray(m.vertex_matrix(), float)
+        F2 = np.asarray(m.face_matrix(), np.int64)
+        S2 = None
+        if scalars is not None:
+            S2 = np.asarray(scalars, float)[cKDTree(V).query(V2)[1]]
+        return V2, F2, S2
+    except Exception as exc:  # pragma: no cover - fallback keeps rendering working
+        log.warning("decimation failed (%s); drawing a random subset of faces", exc)
+        rng = np.random.default_rng(0)
+        keep = np.sort(rng.choice(len(F), int(max_faces), replace=False))
+        return V, F[keep], scalars
+
+
+def _face_polys(V, F, basis):
+    """Screen polygons, depth order (far first) and Lambert shade of each face."""
+    P = V @ basis.T  # (n, 3): right, up, toward viewer
+    T = V[F]
+    N = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
+    nn = np.linalg.norm(N, axis=1)
+    N = N / np.where(nn > 0, nn, 1.0)[:, None]
+    light = tol.VIZ_LIGHT[0] * basis[0] + tol.VIZ_LIGHT[1] * basis[1] + tol.VIZ_LIGHT[2] * basis[2]
+    light /= np.linalg.norm(light)
+    lam = np.abs(N @ light)  # two-sided: open tubes show their inside
+    shade = tol.VIZ_AMBIENT + (1.0 - tol.VIZ_AMBIENT) * lam
+    depth = P[F, 2].mean(axis=1)
+    order = np.argsort(depth, kind="stable")
+    return P[:, :2][F][order], shade[order], order
+
+
+def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material twist \u03b1 (deg)",
+                view=None, vmin=None, vmax=None, cmap="coolwarm", others=(), color=(0.85, 0.45, 0.4),
+                max_faces=tol.VIZ_MAX_FACES, dpi=tol.VIZ_DPI):
+    """Render a (shaded) mesh to a PNG, headless.
+
+    Orthographic view from :func:`view_basis` (side-on, equal aspect), faces
+    drawn back to front with flat two-sided Lambert shading, per-face colour the
+    mean of its vertices' scalars, and a colour bar.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output ``.png`` (written atomically).
+    V : (n, 3) float64
+    F : (m, 3) int64
+    scalars : (n,) float64, optional
+        Per-vertex values to colour by (degrees for twist). None: plain colour, no colour bar.
+    title : str, optional
+    cbar_label : str
+        Colour-bar label.
+    view : None or (3,) float64
+        Direction towards the viewer (default: smallest principal axis of ``V``).
+    vmin, vmax : float, optional
+        Colour range (default symmetric about 0, as :func:`torsion_colors`).
+    cmap : str
+        Matplotlib colormap.
+    others : sequence of (V, F)
+        Further meshes drawn in light grey in the same view (e.g. the vessel joined to).
+    color : (3,) float
+        Colour of the mesh when ``scalars`` is None.
+    max_faces : int
+        Meshes with more faces are decimated first (quadric edge collapse) so a
+        render takes about a second.
+    dpi : int
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    mpl, plt = _mpl()
+    from matplotlib.collections import PolyCollection
+
+    V, F = as_mesh(V, F)
+    S = None
+    if scalars is not None:
+        S = np.asarray(scalars, float).reshape(-1)
+        if S.shape != (len(V),):
+            raise VesselError(f"scalars must have one value per vertex ({len(V)}), got {S.shape}")
+    meshes = [(V, F, S, True)]
+    for Vo, Fo in others:
+        Vo, Fo = as_mesh(Vo, Fo)
+        meshes.append((Vo, Fo, None, False))
+    meshes = [(*_decimate(v, f, s, max_faces), main) if len(f) > max_faces else (v, f, s, main)
+              for v, f, s, main in meshes]
+    allV = np.concatenate([m[0] for m in meshes])
+    basis = view_basis(V if view is None else allV, view)
+    lo, hi = _symmetric_range(S if S is not None else [0.0], vmin, vmax)
+    norm = mpl.colors.Normalize(lo, hi)
+    cm = mpl.colormaps[cmap]
+
+    polys, cols, depths = [], [], []
+    for Vm, Fm, Sm, main in meshes:
+        poly, shade, order = _face_polys(Vm, Fm, basis)
+        if Sm is not None:
+            fs = np.nanmean(Sm[Fm[order]], axis=1)
+            base = cm(norm(fs))[:, :3]
+        elif main:
+            base = np.tile(np.asarray(color, float), (len(order), 1))
+        else:
+            base = np.tile(np.asarray(tol.VIZ_OTHER_GREY, float), (len(order), 1))
+        polys.append(poly)
+        cols.append(np.clip(base * shade[:, None], 0, 1))
+        depths.append((Vm @ basis[2])[Fm[order]].mean(axis=1))
+    poly = np.concatenate(polys)
+    col = np.concatenate(cols)
+    order = np.argsort(np.concatenate(depths), kind="stable")
+    poly, col = poly[order], col[order]
+
+    xy = poly.reshape(-1, 2)
+    (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
+    w, h = max(x1 - x0, 1e-12), max(y1 - y0, 1e-12)
+    # axes size in inches from the content's aspect, then room for title and colour bar
+    a = h / w
+    wa = tol.VIZ_FIG_WIDTH if a <= _MAX_HEIGHT / tol.VIZ_FIG_WIDTH else _MAX_HEIGHT / a
+    ha = max(wa * a, 0.4)
+    right = 1.5 if S is not None else 0.3
+    top = 0.6 if title else 0.25
+    W, H = wa + right + 0.3, max(ha + top + 0.3, 2.6 if S is not None else 1.0)
+    fig = plt.figure(figsize=(W, H))
+    try:
+        yb = (H - top - ha) / 2
+        ax = fig.add_axes([0.3 / W, yb / H, wa / W, ha / H])
+        pc = PolyCollection(poly, facecolors=col, edgecolors=col, linewidths=0.6, antialiaseds=False)
+        ax.add_collection(pc)
+        pad = 0.02 * max(w, h)
+        ax.set_xlim(x0 - pad, x1 + pad)
+        ax.set_ylim(y0 - pad, y1 + pad)
+        ax.set_aspect("equal", adjustable="box")
+        ax.set_axis_off()
+        if title:
+            fig.text(0.5, 1 - 0.3 / H, title, ha="center", va="center", fontsize=11)
+        if S is not None:
+            ch = min(H - top - 0.5, 5.0)
+            cax = fig.add_axes([(W - right + 0.25) / W, (H - top - ch) / 2 / H + 0.1 / H, 0.22 / W, ch / H])
+            sm = mpl.cm.ScalarMappable(norm=norm, cmap=cm)
+            cb = fig.colorbar(sm, cax=cax)
+            cb.set_label(cbar_label)
+        atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=dpi, facecolor="white"), binary=True)
+    finally:
+        plt.close(fig)
+    log.info("rendered %s (%d faces)", path, len(poly))
+    return Path(path)
+
+
+def plot_energy_curve(path, angles, energies, *, optimum=None, evaluated=None, fit_quadratic=True,
+                      title=None, relative_to=None):
+    """Torsion energy against the rotation of the joined end (paper Fig. 4).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output ``.png``.
+    angles : (k,) float64
+        End rotations, radians.
+    energies : (k,) float64
+        Torsion energies (Eq. 8) at ``angles``.
+    optimum : (float, float), optional
+        ``(angle, energy)`` of the minimum, marked with a star.
+    evaluated : ((q,) float64, (q,) float64), optional
+        Angles and energies the optimiser evaluated, drawn as small dots.
+    fit_quadratic : bool
+        Draw the least-squares parabola through the curve (dashed).
+    title : str, optional
+    relative_to : float, optional
+        Plot angles minus this value (radians), e.g. the optimum, so it sits at 0
+        like the paper's Fig. 4.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    mpl, plt = _mpl()
+    a = np.asarray(angles, float).reshape(-1)
+    e = np.asarray(energies, float).reshape(-1)
+    if a.shape != e.shape or a.size == 0:
+        raise VesselError(f"angles and energies must be equally long and non-empty, got {a.shape}, {e.shape}")
+    ref = 0.0 if relative_to is None else float(relative_to)
+    order = np.argsort(a)
+    a, e = a[order], e[order]
+    x = np.degrees(a - ref)
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    try:
+        ax.plot(x, e, "-o", color="C0", ms=4, lw=1.6, label="torsion energy (Eq. 8)")
+        if fit_quadratic and a.size >= 3:
+            c = np.polyfit(x, e, 2)
+            xf = np.linspace(x.min(), x.max(), 300)
+            ax.plot(xf, np.polyval(c, xf), "--", color="0.4", lw=1.0, label="quadratic fit")
+        if evaluated is not None:
+            ea, ee = (np.asarray(v, float).reshape(-1) for v in evaluated)
+            ax.plot(np.degrees(ea - ref), ee, ".", color="C2", ms=7, label=f"optimiser evaluations ({ea.size})")
+        if optimum is not None:
+            oa, oe = float(optimum[0]), float(optimum[1])
+            ax.plot([np.degrees(oa - ref)], [oe], "*", color="C3", ms=16, zorder=5,
+                    label=f"minimum: {np.degrees(oa):.1f}\u00b0, E = {oe:.3g}")
+        ax.set_xlabel("rotation of the joined end" + (" from the optimum" if relative_to is not None else "")
+                      + " (deg)")
+        ax.set_ylabel("torsion energy  $E_\\tau=\\int_0^1 \\alpha'(s)^2\\,ds$")
+        ax.set_ylim(bottom=min(0.0, float(np.nanmin(e))))
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper center", fontsize=8, framealpha=0.9)
+        if title:
+            ax.set_title(title)
+        fig.tight_layout()
+        atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=tol.VIZ_DPI), binary=True)
+    finally:
+        plt.close(fig)
+    return Path(path)
+
+
+def plot_torsion_profile(path, profile, *, title=None):
+    """Material twist ``alpha(s)`` (Eq. 7) and torsion ``alpha'(s)`` of a :class:`vesselgp.TorsionProfile`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output ``.png``.
+    profile : TorsionProfile
+    title : str, optional
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    mpl, plt = _mpl()
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(6.4, 5.2), sharex=True)
+    try:
+        a1.plot(profile.s, np.degrees(profile.alpha), color="C0", lw=1.8, label="\u03b1(s), smoothed")
+        a1.plot(profile.bin_s, np.degrees(profile.bin_alpha), ".", color="0.55", ms=3, label="Eq. 7 bin means")
+        a1.set_ylabel("twist \u03b1 (deg)")
+        a1.legend(fontsize=8)
+        a1.grid(True, alpha=0.3)
+        a2.plot(profile.s, np.degrees(profile.dalpha), color="C3", lw=1.8)
+        a2.axhline(0.0, color="0.5", lw=0.8)
+        a2.set_ylabel("torsion \u03b1'(s) (deg per unit s)")
+        a2.set_xlabel("normalised arc length s")
+        a2.grid(True, alpha=0.3)
+        a1.set_title(title or f"total twist {np.degrees(profile.total_twist):.1f}\u00b0, "
+                     f"energy E = {profile.energy:.4g} (Eq. 8)", fontsize=10)
+        fig.tight_layout()
+        atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=tol.VIZ_DPI), binary=True)
+    finally:
+        plt.close(fig)
+    return Path(path)
+
+
+def write_polyline(path, P, point_data=None):
+    """Write a polyline (e.g. a medial axis) that ParaView and MeshLab open, atomically.
+
+    ``.vtp``: VTK XML PolyData with one ``<Lines>`` cell and point arrays
+    (scalars or 3-vectors). ``.ply``: ASCII PLY with ``vertex`` and ``edge``
+    elements (MeshLab shows the edges); scalar point data become vertex properties.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        ``.vtp`` or ``.ply``.
+    P : (k, 3) float64
+        Points in order.
+    point_data : dict of str to (k,) or (k, 3) float64, optional
+        Named per-point arrays (3-vectors are stored in VTP only).
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> d = tempfile.mkdtemp()
+    >>> P = np.c_[np.zeros(3), np.zeros(3), np.arange(3.0)]
+    >>> write_polyline(os.path.join(d, "axis.ply"), P, {"radius": np.ones(3)})
+    >>> open(os.path.join(d, "axis.ply")).read().count("element")
+    2
+    """
+    from ._validate import as_points
+
+    P = as_points(P, "P", min_rows=2)
+    k = len(P)
+    data = {}
+    for name, a in (point_data or {}).items():
+        a = np.asarray(a, float)
+        if a.shape not in ((k,), (k, 3)):
+            raise VesselError(f"point data {name!r} must have shape ({k},) or ({k}, 3), got {a.shape}")
+        data[name] = a
+    ext = Path(os.fspath(path)).suffix.lower()
+    if ext == ".vtp":
+        def w(fh):
+            fh.write('<?xml version="1.0"?>\n<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian">\n'
+                     "  <PolyData>\n")
+            fh.write(f'    <Piece NumberOfPoints="{k}" NumberOfVerts="0" NumberOfLines="1" '
+                     'NumberOfStrips="0" NumberOfPolys="0">\n')
+            if data:
+                first = next((n for n, a in data.items() if a.ndim == 1), None)
+                fh.write("      <PointData" + (f' Scalars="{first}"' if first else "") + ">\n")
+                for name, a in data.items():
+                    nc = 1 if a.ndim == 1 else 3
+                    fh.write(f'        <DataArray type="Float64" Name="{name}" NumberOfComponents="{nc}" '
+                             'format="ascii">\n')
+                    np.savetxt(fh, a.reshape(k, nc), fmt="%.10g")
+                    fh.write("        </DataArray>\n")
+                fh.write("      </PointData>\n")
+            fh.write('      <Points>\n        <DataArray type="Float64" NumberOfComponents="3" format="ascii">\n')
+            np.savetxt(fh, P, fmt="%.10g")
+            fh.write("        </DataArray>\n      </Points>\n      <Lines>\n")
+            fh.write('        <DataArray type="Int64" Name="connectivity" format="ascii">\n')
+            fh.write(" ".join(map(str, range(k))) + "\n        </DataArray>\n")
+            fh.write(f'        <DataArray type="Int64" Name="offsets" format="ascii">\n{k}\n        </DataArray>\n')
+            fh.write("      </Lines>\n    </Piece>\n  </PolyData>\n</VTKFile>\n")
+    elif ext == ".ply":
+        scal = {n: a for n, a in data.items() if a.ndim == 1}
+
+        def w(fh):
+            fh.write(f"ply\nformat ascii 1.0\ncomment polyline written by vesselgp\nelement vertex {k}\n"
+                     "property double x\nproperty double y\nproperty double z\n")
+            for n in scal:
+                fh.write(f"property double {n}\n")
+            fh.write(f"element edge {k - 1}\nproperty int vertex1\nproperty int vertex2\nend_header\n")
+            np.savetxt(fh, np.column_stack([P, *scal.values()]), fmt="%.10g")
+            np.savetxt(fh, np.c_[np.arange(k - 1), np.arange(1, k)], fmt="%d")
+    else:
+        raise MeshWriteError(f"{path}: a polyline is written as .vtp or .ply, not {ext!r}")
+    atomic_write(path, w)
