@@ -144,19 +144,15 @@ def _files_text(out):
 
 
 def cmd_fit(args):
-    from .demo import fit_vessel, gc_to_dict, write_csv, write_json
+    from .demo import gc_to_dict, write_csv, write_json
+    from .fit import fit_generalized_cylinder
     from .io import write_mesh
     from .viz import render_mesh, torsion_colors, write_polyline
 
     V, F = _read(args.mesh)
     out = _Out(args.output, [args.mesh], args.overwrite)
     t0 = time.perf_counter()
-    if args.nodes is not None or args.ends is not None:
-        from .fit import fit_generalized_cylinder
-
-        gc = fit_generalized_cylinder(V, F, ends=args.ends, n_nodes=args.nodes)
-    else:
-        gc = fit_vessel(V, F)
+    gc = fit_generalized_cylinder(V, F, ends=args.ends, n_nodes=args.nodes)
     dt = time.perf_counter() - t0
     d = gc_to_dict(gc, units=args.units)
     d["bbox_diagonal"] = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
@@ -194,7 +190,8 @@ def cmd_fit(args):
 
 
 def cmd_torsion(args):
-    from .demo import fit_vessel, profile_to_dict, write_csv, write_json
+    from .demo import profile_to_dict, write_csv, write_json
+    from .fit import fit_generalized_cylinder
     from .io import write_mesh
     from .torsion import TorsionMeter
     from .viz import plot_torsion_profile, render_mesh, torsion_colors
@@ -206,7 +203,7 @@ def cmd_torsion(args):
                             f"{len(F1)} faces) meshes must share vertices and faces")
     out = _Out(args.output, [args.rest, args.deformed], args.overwrite)
     t0 = time.perf_counter()
-    meter = TorsionMeter(V0, F0, fit_vessel(V0, F0), smoothing=args.smoothing)
+    meter = TorsionMeter(V0, F0, fit_generalized_cylinder(V0, F0), smoothing=args.smoothing)
     prof = meter(V1)
     dt = time.perf_counter() - t0
     d = {"command": "torsion", "rest": str(args.rest), "deformed": str(args.deformed), "time_s": dt,

@@ -21,6 +21,7 @@ import numpy as np
 
 from . import tolerances as tol
 from .errors import MismatchError, VesselError
+from .fit import fit_generalized_cylinder
 from .viz import atomic_write, plot_energy_curve, plot_torsion_profile, render_mesh, torsion_colors
 
 log = logging.getLogger(__name__)
@@ -28,7 +29,6 @@ log = logging.getLogger(__name__)
 __all__ = [
     "run_demo",
     "run_join",
-    "fit_vessel",
     "gc_to_dict",
     "profile_to_dict",
     "case_to_dict",
@@ -116,43 +116,6 @@ def write_csv(path, columns):
 
 
 # ----------------------------------------------------------------------------- library results as dicts
-
-
-def _loops(F):
-    import igl
-
-    return [np.asarray(lp, np.int64) for lp in igl.boundary_loop_all(np.asarray(F, np.int64))]
-
-
-def fit_vessel(V, F, ends=None):
-    """:func:`vesselgp.fit_generalized_cylinder` with a fallback for meshes with two open ends.
-
-    When ``ends`` is None the library finds the ends with :mod:`vesselgp.mesh`;
-    if that module is unavailable or fails internally (not on bad input), a
-    mesh with exactly two boundary loops is fitted between them.
-
-    Returns
-    -------
-    GeneralizedCylinder
-    """
-    from .fit import fit_generalized_cylinder
-
-    if ends is not None:
-        return fit_generalized_cylinder(V, F, ends=ends)
-    try:
-        return fit_generalized_cylinder(V, F)
-    except VesselError:
-        raise
-    except (ImportError, AttributeError, NameError, TypeError) as exc:
-        loops = _loops(F)
-        if len(loops) != 2:
-            raise
-        from .deform import _SimpleEnd
-
-        log.warning("vessel end detection failed (%s: %s); fitting between the two boundary loops",
-                    type(exc).__name__, exc)
-        Va = np.asarray(V, float)
-        return fit_generalized_cylinder(V, F, ends=(_SimpleEnd(Va, loops[0]), _SimpleEnd(Va, loops[1])))
 
 
 def gc_to_dict(gc, units="mesh units"):
@@ -277,7 +240,7 @@ def run_join(outdir, V, F, fixed, moving, target, *, other=None, name="join", n_
     method : str
         Deformation method (:class:`vesselgp.JoinProblem`).
     ends : optional
-        Ends for the rest fit (default: found, see :func:`fit_vessel`).
+        Ends for the rest fit (default: found by :func:`vesselgp.vessel_ends`).
     progress : None, bool or callable
         Progress bar over the energy curve: True for tqdm, or a ``tqdm``-like callable.
     prefix : str
@@ -295,7 +258,7 @@ def run_join(outdir, V, F, fixed, moving, target, *, other=None, name="join", n_
 
     out = Path(outdir)
     t0 = time.perf_counter()
-    gc = fit_vessel(V, F, ends)
+    gc = fit_generalized_cylinder(V, F, ends=ends)
     problem = JoinProblem(V, F, fixed, moving, target, method=method, gc=gc, smoothing=tol.TORSION_SMOOTHING)
     t1 = time.perf_counter()
     res = minimize_torsion(problem)
@@ -431,21 +394,12 @@ def run_demo(outdir, *, resolution=1.0, n_curve=tol.DEMO_CURVE_POINTS, cases=(1,
         write_mesh(sub / "vessel.ply", case.V, case.F)
         write_mesh(sub / "other.ply", case.other_V, case.other_F)
         write_json(sub / "case.json", case_to_dict(case, resolution), indent=None)
-        loops = _loops(case.F)
-        from .deform import _SimpleEnd
-
-        # generated vessels have two open ends: give them (no dependence on end detection)
-        ends = None
-        if len(loops) == 2:
-            first = min(loops, key=lambda lp: float(np.mean(case.truth.vertex_s[lp])))
-            last = max(loops, key=lambda lp: float(np.mean(case.truth.vertex_s[lp])))
-            ends = (_SimpleEnd(case.V, first), _SimpleEnd(case.V, last))
         from .join import Frame
 
         target = Frame(case.target_origin, case.target_tangent, case.target_normal)
         r = run_join(sub, case.V, case.F, case.fixed, case.moving, target,
                      other=(case.other_V, case.other_F, case.other_end), name=f"case {n}",
-                     n_curve=n_curve, ends=ends, progress=progress, prefix=f"case{n}/", render=render)
+                     n_curve=n_curve, progress=progress, prefix=f"case{n}/", render=render)
         r["files"].update({"vessel": f"case{n}/vessel.ply", "other": f"case{n}/other.ply",
                            "case_json": f"case{n}/case.json"})
         r = {"case": int(n), "title": case.name, **r, "generate_time_s": tg}
