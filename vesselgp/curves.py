@@ -156,16 +156,22 @@ def rotation_minimizing_frames(P, tangents=None, initial_normal=None, method="do
     else:
         T = as_points(tangents, "tangents", rows=k)
         n = np.linalg.norm(T, axis=1)
-        if np.any(n < np.sqrt(tol.ZERO_VECTOR)):
+        # relative to the longest tangent, so that tangents in any unit work
+        if np.any(~(n > np.sqrt(tol.ZERO_VECTOR) * n.max())):
             raise FrameError("a tangent is zero; give non-zero tangents or omit them")
         T = T / n[:, None]
     if initial_normal is None:
         r = _perpendicular(T[0])
     else:
         r = as_vector(initial_normal, "initial_normal")
+        m = float(np.abs(r).max())
+        if not m > 0:
+            raise FrameError("initial_normal is the zero vector; give a direction across the curve")
+        r = r / m
+        nr0 = np.linalg.norm(r)
         r = r - (r @ T[0]) * T[0]
         nr = np.linalg.norm(r)
-        if nr < tol.FRAME_ORTHONORMAL * max(1.0, np.linalg.norm(initial_normal)):
+        if not nr > tol.FRAME_ORTHONORMAL * nr0:  # relative: any unit works
             raise FrameError(
                 "initial_normal is parallel to the first tangent; give a direction across the curve"
             )
@@ -343,7 +349,15 @@ def _frenet_smooth(P, length_scale):
     edges = np.flatnonzero(np.diff(np.concatenate([[0], defined.astype(int), [0]])))
     for a, b in zip(edges[::2], edges[1::2]):
         if b - a >= 5:
-            ph = make_smoothing_spline(u[a:b], np.unwrap(phi[a:b]))
+            try:
+                ph = make_smoothing_spline(u[a:b], np.unwrap(phi[a:b]))
+            except (ValueError, np.linalg.LinAlgError):
+                # the GCV choice of smoothing is ill-posed (e.g. a curve far shorter than
+                # length_scale): smooth phi like the points instead
+                try:
+                    ph = make_smoothing_spline(u[a:b], np.unwrap(phi[a:b]), lam=lam)
+                except (ValueError, np.linalg.LinAlgError):
+                    continue  # torsion stays undefined (NaN, defined False) on this run
             tau[a:b] = ph.derivative()(u[a:b])
     defined = defined & np.isfinite(tau)
     B = np.full_like(c, np.nan)

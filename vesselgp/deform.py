@@ -128,10 +128,11 @@ def _axis_angle(a, b):
 
 def _unit(x, name):
     v = as_vector(x, name)
-    nv = float(np.linalg.norm(v))
-    if nv < np.sqrt(tol.ZERO_VECTOR) * max(1.0, float(np.abs(v).max(initial=0.0))) or nv == 0.0:
+    m = float(np.abs(v).max())
+    if not m > 0:  # relative: any non-zero length is a direction (no unit-dependent threshold)
         raise FrameError(f"{name} is the zero vector; give a non-zero direction")
-    return v / nv
+    v = v / m
+    return v / np.linalg.norm(v)
 
 
 def _target(target):

@@ -43,7 +43,7 @@ from scipy.spatial import cKDTree
 from . import tolerances as tol
 from ._validate import as_mesh, as_vector
 from .curves import _perpendicular, chord_length, rotation_minimizing_frames
-from .errors import EndsError, InvalidMeshError, NotTubularError
+from .errors import EndsError, InvalidMeshError, NotTubularError, VesselError
 
 log = logging.getLogger(__name__)
 
@@ -165,6 +165,11 @@ class _Axis:
         u = chord_length(nodes)
         keep = np.concatenate([[True], np.diff(u) > 0])
         nodes, u = nodes[keep], u[keep]
+        if len(nodes) < 2:
+            raise NotTubularError(
+                "mesh is not tubular: its axis collapsed to a point (all vertices coincide); "
+                "check the (deformed) vertex positions"
+            )
         k = min(3, len(nodes) - 1)
         self.spline = make_interp_spline(u, nodes, k=k)
         # arc-length reparameterisation on a fine grid
@@ -309,10 +314,11 @@ def _circle_update(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_end
         N = N + lam * Wbar * (R.T @ R)
         if absolute:
             rhs = rhs - lam * Wbar * (R.T @ (D2 @ centers[:, dim]))
-    # keep d well posed where a node has no data
+    # keep d well posed where a node has no data (d is an area: its weight is
+    # divided by rscale^2 so that the fit is the same in any length unit)
     D1 = _diff(K, 1)
     Rd = sp.hstack([sp.csr_matrix((K - 1, 2 * K)), D1]).tocsr()
-    N = N + 1e-6 * Wbar * (Rd.T @ Rd)
+    N = N + 1e-6 * Wbar / rscale**2 * (Rd.T @ Rd)
     free = np.ones(3 * K, bool)
     if pin_ends:
         free[[0, K - 1, K, 2 * K - 1]] = False
@@ -465,6 +471,62 @@ def _check_aspect(length, radius):
         )
 
 
+def _check_connected(V, F):
+    """Raise :class:`InvalidMeshError` when the mesh has several connected pieces."""
+    from scipy.sparse.csgraph import connected_components
+
+    n = len(V)
+    E = F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    G = sp.coo_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n))
+    ncomp = connected_components(G, directed=False)[0]
+    if ncomp > 1:
+        raise InvalidMeshError(
+            f"mesh has {ncomp} connected components; run vesselgp.clean_mesh (keeps the largest) "
+            "or fit each vessel separately"
+        )
+
+
+def _nondegenerate_faces(V, F):
+    """Faces whose area is well defined: above ``DEGENERATE_AREA`` times their longest edge squared.
+
+    Zero-area faces (collinear or repeated corners) have no cotangent weights;
+    they are left out of the area weights and the harmonic field (they carry no
+    surface). A vertex used only by such faces has no area and no field value:
+    that raises :class:`InvalidMeshError` suggesting :func:`vesselgp.clean_mesh`.
+    """
+    T = V[F]
+    dbl = np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
+    e2 = np.max([np.einsum("ij,ij->i", d, d) for d in (T[:, 1] - T[:, 0], T[:, 2] - T[:, 1], T[:, 0] - T[:, 2])],
+                axis=0)
+    bad = ~(dbl > 2.0 * tol.DEGENERATE_AREA * e2)
+    if not bad.any():
+        return F
+    Fg = F[~bad]
+    lost = len(V) - len(np.unique(Fg)) if len(Fg) else len(V)
+    if lost:
+        raise InvalidMeshError(
+            f"mesh has {int(bad.sum())} zero-area faces and {lost} vertices used only by them; "
+            "run vesselgp.clean_mesh first"
+        )
+    log.info("fit ignores %d zero-area faces (vesselgp.clean_mesh removes exactly degenerate ones)",
+             int(bad.sum()))
+    return Fg
+
+
+def _log_scale(V, F, e0, e1):
+    """Log the mesh's scale; warn when its units look like metres or centimetres (or micrometres)."""
+    from .mesh import mesh_scale
+
+    sc = mesh_scale(V, F, ends=(e0, e1))
+    r0, r1 = sc.radius_range
+    report = (f"median edge {sc.median_edge:.3g}, end radii {r0:.3g} to {r1:.3g}, "
+              f"bounding-box diagonal {sc.bbox_diagonal:.3g}")
+    if sc.warning:
+        log.warning("mesh scale: %s; %s", report, sc.warning)
+    else:
+        log.info("mesh scale: %s (units look like %s)", report, sc.units_guess)
+
+
 # ----------------------------------------------------------------------------- public entry
 
 
@@ -486,6 +548,11 @@ def fit_generalized_cylinder(
     notes), the radius fixed point of Eq. 5 (mean distance, Eq. 4, with the
     ``mu`` regulariser), the RMF by double reflection, and the vertex
     parameterisation ``(s_i, theta_i)``.
+
+    The mesh's scale (median edge, end radii) is logged at INFO level, and at
+    WARNING level when it looks like metres, centimetres or micrometres rather
+    than millimetres (:func:`vesselgp.mesh_scale`); the fit itself does not
+    depend on the unit.
 
     Parameters
     ----------
@@ -516,7 +583,10 @@ def fit_generalized_cylinder(
     Raises
     ------
     InvalidMeshError
-        Malformed arrays or unreferenced vertices (run :func:`vesselgp.clean_mesh`).
+        Malformed arrays, unreferenced vertices, several connected components,
+        vertices used only by zero-area faces, or (through
+        :func:`vesselgp.vessel_ends`) other defects: run :func:`vesselgp.clean_mesh`.
+        Zero-area faces themselves are left out of the area weights.
     NotTubularError, EndsError
         No two ends, ambiguous ends on a branching mesh, or a vessel shorter
         than its diameter.
@@ -537,11 +607,19 @@ def fit_generalized_cylinder(
         raise InvalidMeshError(
             f"mesh has {int((~used).sum())} unreferenced vertices; run vesselgp.clean_mesh first"
         )
+    if n_nodes is not None and (isinstance(n_nodes, bool) or not isinstance(n_nodes, (int, np.integer))
+                                or n_nodes < 4):
+        raise VesselError(f"n_nodes must be an integer of at least 4, got {n_nodes!r}; or None for the default")
+    _check_connected(V, F)
+    Fg = _nondegenerate_faces(V, F)
     e0, e1, end_ids, n_ends = _resolve_ends(V, F, ends)
     if initial_normal is not None:
         initial_normal = as_vector(initial_normal, "initial_normal")
+    _log_scale(V, F, e0, e1)
 
-    area = igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_VORONOI).diagonal().copy()
+    # Voronoi areas and the harmonic field use the faces with a well-defined
+    # area (zero-area faces have infinite cotangent weights)
+    area = igl.massmatrix(V, Fg, igl.MASSMATRIX_TYPE_VORONOI).diagonal().copy()
     end_region = np.zeros(n, bool)
     for e in (e0, e1):
         if getattr(e, "kind", "open") != "open":
@@ -550,19 +628,17 @@ def fit_generalized_cylinder(
     if not np.isfinite(rscale) or rscale <= 0:
         raise NotTubularError("mesh is not tubular: the ends have no positive radius")
     if n_ends > 2:
-        area = np.where(_path_mask(V, F, e0, e1, rscale), area, 0.0)
+        area = np.where(_path_mask(V, Fg, e0, e1, rscale), area, 0.0)
 
     # -- initialisation: harmonic field + level-band centroids
     chord = float(np.linalg.norm(np.asarray(e1.center) - np.asarray(e0.center)))
     K0 = int(np.clip(chord / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
-    pts, s_prev, _ = _initial_axis(V, F, e0, e1, np.where(end_region, 0.0, area), K0, rscale)
+    pts, s_prev, _ = _initial_axis(V, Fg, e0, e1, np.where(end_region, 0.0, area), K0, rscale)
     L0 = chord_length(pts)[-1]
     # Shorter than its diameter: judged by the distance between the end centres
     # (the initial axis of such a stub is not reliable).
     _check_aspect(chord, rscale)
-    K = n_nodes or int(np.clip(L0 / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
-    if K < 4:
-        raise ValueError("n_nodes must be at least 4")
+    K = int(n_nodes or np.clip(L0 / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
     nodes = _resample_nodes(pts, K)
     nodes[0], nodes[-1] = e0.center, e1.center
 

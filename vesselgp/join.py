@@ -86,14 +86,19 @@ class Frame:
     def __post_init__(self):
         o = as_vector(self.origin, "origin")
         t = as_vector(self.tangent, "tangent")
-        nt = float(np.linalg.norm(t))
-        if not nt > 0:
+        # divide by the largest entry first: any non-zero length (1e-300 or
+        # 1e300) gives a unit vector, no overflow or underflow
+        mt = float(np.abs(t).max())
+        if not mt > 0:
             raise FrameError("tangent is the zero vector; give the direction of the vessel axis at the join")
-        t = t / nt
+        t = t / mt
+        t = t / np.linalg.norm(t)
         n = as_vector(self.normal, "normal")
-        nn = float(np.linalg.norm(n))
-        if not nn > 0:
+        mn = float(np.abs(n).max())
+        if not mn > 0:
             raise FrameError("normal is the zero vector; give a direction across the axis")
+        n = n / mn
+        nn = float(np.linalg.norm(n))
         n = n - (n @ t) * t
         if np.linalg.norm(n) < tol.FRAME_ORTHONORMAL * nn:
             raise FrameError("normal is parallel to tangent; give a normal across the axis")

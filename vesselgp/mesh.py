@@ -19,7 +19,7 @@ from scipy.sparse.csgraph import connected_components, dijkstra
 
 from . import tolerances as tol
 from ._validate import as_mesh
-from .errors import EndsError, NotTubularError
+from .errors import EndsError, InvalidMeshError, NotTubularError
 
 __all__ = [
     "clean_mesh",
@@ -165,6 +165,24 @@ class CleanReport:
         )
 
 
+def _fin_faces(F):
+    """Faces to drop from non-manifold edges: on each edge with k > 2 faces, the
+    faces with the most boundary edges (dangling fins), while a face without a
+    boundary edge or a tie leaves the choice to pymeshlab."""
+    H = np.sort(F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    _, inv, cnt = np.unique(H, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1, 3)
+    nbound = (cnt[inv] == 1).sum(axis=1)  # boundary edges of each face
+    drop = set()
+    for e in np.flatnonzero(cnt > 2):  # loop over the (few) non-manifold edges
+        faces = [f for f in np.flatnonzero((inv == e).any(axis=1)) if f not in drop]
+        faces.sort(key=lambda f: -nbound[f])
+        extra = len(faces) - 2
+        if extra > 0 and nbound[faces[extra - 1]] > nbound[faces[extra]]:
+            drop.update(int(f) for f in faces[:extra])
+    return np.array(sorted(drop), dtype=np.int64)
+
+
 def clean_mesh(V, F, keep_largest=True):
     """Repair a triangle mesh and keep its largest connected component.
 
@@ -239,7 +257,18 @@ def clean_mesh(V, F, keep_largest=True):
     c["non_manifold_edges_repaired"] = int(np.count_nonzero(_unique_edges(Fm)[1] > 2)) if len(Fm) else 0
     c["non_manifold_faces_removed"] = 0
     if c["non_manifold_edges_repaired"]:
-        c["non_manifold_faces_removed"] = run(
+        fins = _fin_faces(Fm)
+        if len(fins):  # remove dangling fins first, so the wall keeps its faces
+            m = ms.current_mesh()
+            ids = m.vertex_custom_scalar_attribute_array("vgp_id")
+            keep = np.ones(len(Fm), bool)
+            keep[fins] = False
+            mesh = pymeshlab.Mesh(vertex_matrix=m.vertex_matrix(), face_matrix=Fm[keep].astype(np.int32))
+            mesh.add_vertex_custom_scalar_attribute(ids, "vgp_id")
+            ms.clear()
+            ms.add_mesh(mesh)
+            c["non_manifold_faces_removed"] = len(fins)
+        c["non_manifold_faces_removed"] += run(
             "meshing_repair_non_manifold_edges", method="Remove Faces"
         )[1]
     c["non_manifold_vertices_split"] = -run("meshing_repair_non_manifold_vertices")[0]
@@ -446,9 +475,10 @@ def _make_end(V, kind, loop, region, center, normal, faces=None):
     mask[region] = False
     d = np.linalg.norm(V - center, axis=1)
     near = mask & (d < tol.ENDS_BODY_RADII * radius)
-    body = V[near].mean(0) if near.any() else V[mask].mean(0)
-    if n @ (center - body) < 0:
-        n = -n
+    if near.any() or mask.any():  # (a bare loop has no body to point away from)
+        body = V[near].mean(0) if near.any() else V[mask].mean(0)
+        if n @ (center - body) < 0:
+            n = -n
     if len(loop) >= 3 and _vector_area(V[loop]) @ n < 0:
         loop = loop[::-1].copy()
     return VesselEnd(kind, loop, np.unique(np.asarray(region, dtype=np.int64)),
@@ -465,7 +495,15 @@ def _open_ends(V, F):
         if len(loop) < 3:
             continue
         P = V[loop]
-        ends.append(_make_end(V, "open", loop, loop, _loop_centroid(P), _vector_area(P)))
+        a = _vector_area(P)
+        per = float(np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1).sum())
+        if not np.linalg.norm(a) > tol.DEGENERATE_AREA * per**2:
+            c = ", ".join(f"{x:.3g}" for x in P.mean(0))
+            raise InvalidMeshError(
+                f"boundary loop of {len(loop)} vertices at ({c}) encloses no area (its vertices "
+                "coincide or are collinear); run vesselgp.clean_mesh or repair the mesh there"
+            )
+        ends.append(_make_end(V, "open", loop, loop, _loop_centroid(P), a))
     return ends
 
 
@@ -593,6 +631,10 @@ def vessel_ends(V, F):
     ------
     NotTubularError
         No two ends (a sphere, a torus, a closed blob).
+    InvalidMeshError
+        Defects that :func:`clean_mesh` repairs and that would make boundary
+        loops meaningless: faces with a repeated vertex index, non-manifold
+        edges, inconsistently oriented faces, open seams of duplicate vertices.
 
     Examples
     --------
@@ -610,6 +652,7 @@ def vessel_ends(V, F):
     [-1.0, 1.0]
     """
     V, F = as_mesh(V, F)
+    _check_surface(V, F)
     ends = _open_ends(V, F)
     if len(ends) < 2:
         for fids, loop, center, n in _find_caps(V, F):
@@ -619,6 +662,50 @@ def vessel_ends(V, F):
     ends.sort(key=cmp_to_key(_compare_ends))
     log.info("found %d vessel ends: %s", len(ends), "; ".join(e.describe() for e in ends))
     return tuple(ends)
+
+
+def _check_surface(V, F):
+    """Raise :class:`InvalidMeshError` on defects that make boundary loops meaningless.
+
+    Each defect is one that :func:`clean_mesh` repairs, and the message says so:
+    faces with a repeated vertex index, non-manifold edges, inconsistently
+    oriented faces (their shared edges would look like boundary loops), and
+    open seams of duplicate vertices (a seam looks like two vessel ends).
+    """
+    rep = int(np.count_nonzero((F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 2] == F[:, 0])))
+    if rep:
+        raise InvalidMeshError(
+            f"mesh has {rep} faces with a repeated vertex index (zero area); "
+            "run vesselgp.clean_mesh to remove them"
+        )
+    H = F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    E, ec = np.unique(np.sort(H, axis=1), axis=0, return_counts=True)
+    nm = int(np.count_nonzero(ec > 2))
+    if nm:
+        raise InvalidMeshError(
+            f"mesh has {nm} non-manifold edges (shared by more than two faces); "
+            "run vesselgp.clean_mesh to repair them"
+        )
+    _, hc = np.unique(H, axis=0, return_counts=True)
+    bad = int(np.count_nonzero(hc > 1))
+    if bad:
+        raise InvalidMeshError(
+            f"mesh faces are not consistently oriented ({bad} edges are used twice in the same "
+            "direction); run vesselgp.clean_mesh to orient them"
+        )
+    B = E[ec == 1]
+    if len(B):
+        # an open seam: boundary edges lying on top of other boundary edges (a
+        # split bow-tie vertex alone, as clean_mesh leaves it, is not one)
+        _, pos = np.unique(V + 0.0, axis=0, return_inverse=True)
+        pos = pos.reshape(-1)
+        _, bc = np.unique(np.sort(pos[B], axis=1), axis=0, return_counts=True)
+        dup = int(np.count_nonzero(bc > 1))
+        if dup:
+            raise InvalidMeshError(
+                f"mesh has open seams of duplicate vertices ({dup} boundary edges lie on other "
+                "boundary edges); run vesselgp.clean_mesh to merge the duplicates"
+            )
 
 
 def _rounded_ends(V, F, ends):
@@ -709,8 +796,15 @@ def select_ends(ends, ends_arg=None):
     if ends_arg is None:
         if k == 2:
             return ends[0], ends[1]
+        r2 = sorted((e.radius for e in ends), reverse=True)[1]
+        small = sum(e.radius < 0.5 * r2 for e in ends)
+        holes = (
+            f"; {small} of them are less than half as wide as the second-widest end: if they are "
+            "holes, close them first (e.g. pymeshlab's meshing_close_holes)"
+            if small else ""
+        )
         raise EndsError(
-            f"mesh has {what}; pass ends=(i, j) to choose the vessel's path (ends: {listing})"
+            f"mesh has {what}; pass ends=(i, j) to choose the vessel's path{holes} (ends: {listing})"
         )
     try:
         i, j = ends_arg
