@@ -41,6 +41,7 @@ from scipy.interpolate import make_interp_spline
 from scipy.spatial import cKDTree
 
 from . import tolerances as tol
+from ._arrays import unique_rows
 from ._validate import as_mesh, as_vector
 from .curves import _perpendicular, chord_length, rotation_minimizing_frames
 from .errors import EndsError, InvalidMeshError, NotTubularError, VesselError
@@ -135,24 +136,42 @@ class GeneralizedCylinder:
 # ----------------------------------------------------------------------------- axis machinery
 
 
-def _interp_frames(ds, dp, dfr, s, frames=True):
+def _segment_table(dp, dfr, kvec=None):
+    """Per-segment table [p, dp, T, dT, (k,) U, dU] for one-gather interpolation.
+
+    Columns 0-11 hold points and tangents, 12-14 the curvature vector when
+    given, then U and its difference (so the Newton projection gathers one
+    contiguous block).
+    """
+    cols = [dp[:-1], np.diff(dp, axis=0), dfr[:-1, 0], np.diff(dfr[:, 0], axis=0)]
+    if kvec is not None:
+        cols.append(0.5 * (kvec[:-1] + kvec[1:]))
+    cols += [dfr[:-1, 1], np.diff(dfr[:, 1], axis=0)]
+    return np.ascontiguousarray(np.hstack(cols))
+
+
+def _interp_frames(ds, dp, dfr, s, frames=True, table=None):
     """Linear interpolation of dense axis samples and frames at ``s`` (re-orthonormalised).
 
-    With ``frames=False`` only the points and unit tangents are returned (the
-    Newton projection needs no more).
+    ``ds`` must be uniform (equal arc-length samples). With ``frames=False``
+    only the points and unit tangents are returned (the Newton projection
+    needs no more). ``table`` is :func:`_segment_table` of ``dp, dfr``.
     """
     s = np.clip(np.asarray(s, float), 0.0, 1.0)
     M = len(ds)
-    j = np.clip(np.searchsorted(ds, s, side="right") - 1, 0, M - 2)
-    t = ((s - ds[j]) / (ds[j + 1] - ds[j]))[:, None]
-    pts = dp[j] + t * (dp[j + 1] - dp[j])
-    T0 = dfr[j, 0]
-    T = T0 + t * (dfr[j + 1, 0] - T0)
+    x = s * (M - 1)
+    j = np.minimum(x.astype(np.int64), M - 2)
+    t = (x - j)[:, None]
+    if table is None:
+        table = _segment_table(dp, dfr)
+    u0 = table.shape[1] - 6  # U columns start here (after the optional curvature)
+    G = table[j] if frames else table[j, :u0]
+    pts = G[:, 0:3] + t * G[:, 3:6]
+    T = G[:, 6:9] + t * G[:, 9:12]
     T /= np.sqrt(np.einsum("ij,ij->i", T, T))[:, None]
     if not frames:
-        return pts, T
-    U0 = dfr[j, 1]
-    U = U0 + t * (dfr[j + 1, 1] - U0)
+        return pts, T, (G[:, 12:15] if u0 > 12 else None)
+    U = G[:, u0 : u0 + 3] + t * G[:, u0 + 3 : u0 + 6]
     U -= np.einsum("ij,ij->i", U, T)[:, None] * T
     U /= np.sqrt(np.einsum("ij,ij->i", U, U))[:, None]
     return pts, np.stack([T, U, np.cross(T, U)], axis=1)
@@ -189,6 +208,7 @@ class _Axis:
         self.frames = np.stack([T, U, V], axis=1)
         # curvature vector dT/ds (per mesh unit) at the dense samples
         self.kvec = np.gradient(T, self.s * self.length, axis=0)
+        self.table = _segment_table(self.points, self.frames, self.kvec)
         self._tree = None
 
     def stretch(self, s, d):
@@ -203,7 +223,7 @@ class _Axis:
         return 1.0 - np.einsum("ij,ij->i", self.kvec[j], d)
 
     def at(self, s):
-        return _interp_frames(self.s, self.points, self.frames, s)
+        return _interp_frames(self.s, self.points, self.frames, s, table=self.table)
 
     def project(self, P, s_prev, window=None):
         """Closest-point parameter of each row of ``P`` near its previous parameter.
@@ -233,10 +253,10 @@ class _Axis:
             s = sc[np.arange(len(P)), best]
         for _ in range(tol.GC_NEWTON_STEPS):
             s = np.clip(s, 0, 1)
-            pts, T = _interp_frames(self.s, self.points, self.frames, s, frames=False)
+            pts, T, k = _interp_frames(self.s, self.points, self.frames, s, frames=False, table=self.table)
             d = P - pts
             # d/ds of (p - m(s)) . T(s) is -(1 - k . d) times the length
-            jac = np.maximum(self.stretch(s, d), tol.GC_MIN_STRETCH)
+            jac = np.maximum(1.0 - np.einsum("ij,ij->i", k, d), tol.GC_MIN_STRETCH)
             s = s + np.einsum("ij,ij->i", d, T) / (self.length * jac)
         return s
 
@@ -410,8 +430,7 @@ def _harmonic_between(V, F, b, bc, rscale):
     area = float(igl.doublearea(V, F).sum()) / 2
     h = min(np.sqrt(area / tol.GC_COARSE_INIT_VERTICES), tol.GC_COARSE_CELL_RADII * rscale)
     key = np.floor((V - V.min(axis=0)) / h).astype(np.int64)
-    _, cell = np.unique(key, axis=0, return_inverse=True)
-    cell = cell.ravel()
+    _, cell = unique_rows(key, return_inverse=True)
     nc = int(cell.max()) + 1
     E = igl.edges(F)
     ce = cell[E]

@@ -1,0 +1,50 @@
+"""Small array helpers shared by the stages."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def unique_rows(A, return_index=False, return_inverse=False, return_counts=False):
+    """``np.unique(A, axis=0, ...)`` for integer rows, through one int64 key per row.
+
+    ``np.unique(axis=0)`` sorts structured rows and is about 40 times slower on
+    large edge lists; packing each row into one integer gives the same unique
+    rows in the same (lexicographic) order. Falls back to ``np.unique(axis=0)``
+    when the packed key would overflow.
+
+    Parameters
+    ----------
+    A : (m, k) int
+        Rows of non-negative integers.
+
+    Returns
+    -------
+    Same as :func:`numpy.unique` with ``axis=0``; ``return_inverse`` is 1-D.
+
+    Examples
+    --------
+    >>> unique_rows(np.array([[2, 1], [0, 3], [2, 1]]), return_counts=True)
+    (array([[0, 3],
+           [2, 1]]), array([1, 2]))
+    """
+    A = np.asarray(A)
+    m, k = A.shape
+    base = int(A.max()) + 1 if m else 1
+    if m == 0 or A.min() < 0 or base ** k >= 2**62:
+        out = np.unique(A, axis=0, return_index=return_index, return_inverse=return_inverse,
+                        return_counts=return_counts)
+        if return_inverse:
+            out = list(out)
+            out[1 + int(return_index)] = np.asarray(out[1 + int(return_index)]).ravel()
+            out = tuple(out)
+        return out
+    key = np.zeros(m, np.int64)
+    for j in range(k):
+        key = key * base + A[:, j].astype(np.int64)
+    res = np.unique(key, return_index=True, return_inverse=return_inverse, return_counts=return_counts)
+    rows = A[res[1]]
+    out = [rows]
+    if return_index:
+        out.append(res[1])
+    out.extend(res[2:])
+    return tuple(out) if len(out) > 1 else rows
