@@ -31,6 +31,7 @@ the fitted radius.
 from __future__ import annotations
 
 import logging
+import warnings
 from dataclasses import dataclass, field
 
 import igl
@@ -275,9 +276,9 @@ def _default_normal(points, t0):
     return _perpendicular(t0)
 
 
-def _subset(n):
-    """Evenly thinned vertex subset (a slice) for the fit iterations of large meshes."""
-    step = max(1, int(np.ceil(n / tol.GC_MAX_FIT_VERTICES)))
+def _subset(n, most=tol.GC_MAX_FIT_VERTICES):
+    """Evenly thinned vertex subset (a slice) of at most about ``most`` vertices."""
+    step = max(1, int(np.ceil(n / most)))
     return slice(0, n, step)
 
 
@@ -344,7 +345,7 @@ def _circle_update(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_end
         free[[0, K - 1, K, 2 * K - 1]] = False
     sol = np.zeros(3 * K)
     Nf = N[free][:, free]
-    sol[free] = spla.spsolve(Nf.tocsc(), rhs[free])
+    sol[free] = _solve(Nf, rhs[free])
     cx, cy = sol[:K], sol[K : 2 * K]
     return cx[:, None] * U + cy[:, None] * V
 
@@ -358,7 +359,23 @@ def _radius_fit(s, rho, w, K, mu):
     Wbar = float(N.diagonal().mean())
     D1 = _diff(K, 1)
     N = N + mu * Wbar * (D1.T @ D1) + 1e-9 * Wbar * sp.eye(K)
-    return spla.spsolve(N.tocsc(), rhs)
+    return _solve(N, rhs)
+
+
+def _solve(N, rhs):
+    """Sparse solve; a singular or non-finite system means the surface does not surround an axis."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", spla.MatrixRankWarning)
+        try:
+            x = spla.spsolve(N.tocsc(), rhs)
+        except (spla.MatrixRankWarning, RuntimeError):
+            x = None
+    if x is None or not np.all(np.isfinite(x)):
+        raise NotTubularError(
+            "mesh is not tubular: the generalized-cylinder fit is singular (the surface does not "
+            "surround an axis: flat, collapsed or torn); check the mesh, e.g. with vesselgp.clean_mesh"
+        )
+    return x
 
 
 def _local_coords(axis, P, s):

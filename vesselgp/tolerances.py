@@ -70,6 +70,9 @@ GC_SAMPLES_PER_NODE = 8
 #: Vessel must be at least this many mean diameters long.
 MIN_ASPECT = 1.0
 
+#: The circle-fit correction of the deformed axis (after Eq. 6) uses at most about
+#: this many evenly thinned vertices; every vertex is still re-parameterised.
+TORSION_RECOVERY_VERTICES = 20000
 #: Bins of Eq. 7's circular mean per axis node (node spacing is half a radius).
 TORSION_BINS_PER_NODE = 2
 #: Smoothing length of the material-angle profile alpha(s), in axis-node
@@ -112,7 +115,7 @@ SYNTH_MAX_FOLD = 0.9
 # --- deformation and joining (vesselgp.deform, vesselgp.join) ---------------
 #: ARAP iterations refining the rod placement (method "rod_arap"); the rod start is
 #: already close to an ARAP minimum, more iterations only cost time.
-DEFORM_REFINE_ITERATIONS = 3
+DEFORM_REFINE_ITERATIONS = 1
 #: ARAP iterations of the plain "arap" comparison method (from the rest shape).
 DEFORM_ARAP_ITERATIONS = 10
 #: Moving vertices must lie within this many mean radii (along the axis) of a vessel end.

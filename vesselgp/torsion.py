@@ -165,7 +165,7 @@ class TorsionMeter:
         K = len(rest.s)
         self.K = K
         self.n_bins = tol.TORSION_BINS_PER_NODE * K
-        self._sub = _subset(self.n)  # the bias correction runs on a thinned subset
+        self._sub = _subset(self.n, tol.TORSION_RECOVERY_VERTICES)  # bias correction on a thinned subset
         self.s0 = rest.vertex_s
         self.w = rest.vertex_weight
         self.area = rest.vertex_area
