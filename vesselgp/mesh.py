@@ -584,6 +584,8 @@ def _ring_end(V, G, tip, h):
     u = V[ring] - center
     u -= np.outer(u @ t, t)
     e1 = u[np.argmax(np.linalg.norm(u, axis=1))]
+    if not np.linalg.norm(e1) > 0:  # the ring lies on the axis line: no tube here
+        return None
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(t, e1)
     ring = ring[np.argsort(np.arctan2(u @ e2, u @ e1), kind="stable")]
@@ -727,6 +729,10 @@ def _rounded_ends(V, F, ends):
             )
     G = _edge_graph(V, F)
     h = _median_edge(V, F)
+    if not h > 0:
+        raise NotTubularError(
+            "mesh is not tubular: no two ends found (most edges have zero length); run vesselgp.clean_mesh"
+        )
     if ends:
         g = dijkstra(G, indices=ends[0].vertices, min_only=True)
     else:

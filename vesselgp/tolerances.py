@@ -33,7 +33,9 @@ SHARP_EDGE_ANGLE = 1.0  # about 57 degrees
 #: Max deviation of a flat cap's face normals from their mean (radians).
 CAP_FLATNESS = 0.2
 
-#: Relative area below which a triangle is degenerate: area < DEGENERATE_AREA * mean_edge^2.
+#: Relative area below which a triangle is degenerate (area < DEGENERATE_AREA * its longest
+#: edge^2: no finite cotangent weights), and a boundary loop encloses no area
+#: (|vector area| < DEGENERATE_AREA * perimeter^2).
 DEGENERATE_AREA = 1e-12
 
 #: Generalized-cylinder fit: axis node spacing as a multiple of the mean radius.
