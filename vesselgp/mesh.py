@@ -18,6 +18,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, dijkstra
 
 from . import tolerances as tol
+from ._arrays import unique_rows
 from ._validate import as_mesh
 from .errors import EndsError, InvalidMeshError, NotTubularError
 
@@ -45,7 +46,7 @@ def _face_vectors(V, F):
 def _unique_edges(F):
     """Undirected edges (e, 2) sorted per row, and how many faces use each."""
     E = np.sort(F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    return np.unique(E, axis=0, return_counts=True)
+    return unique_rows(E, return_counts=True)
 
 
 def _median_edge(V, F):
@@ -170,7 +171,7 @@ def _fin_faces(F):
     faces with the most boundary edges (dangling fins), while a face without a
     boundary edge or a tie leaves the choice to pymeshlab."""
     H = np.sort(F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    _, inv, cnt = np.unique(H, axis=0, return_inverse=True, return_counts=True)
+    _, inv, cnt = unique_rows(H, return_inverse=True, return_counts=True)
     inv = inv.reshape(-1, 3)
     nbound = (cnt[inv] == 1).sum(axis=1)  # boundary edges of each face
     drop = set()
@@ -291,7 +292,7 @@ def clean_mesh(V, F, keep_largest=True):
 
     # connected components by edge adjacency, keep the largest by area
     Ekey = np.sort(F2[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    _, einv = np.unique(Ekey, axis=0, return_inverse=True)
+    _, einv = unique_rows(Ekey, return_inverse=True)
     fid = np.repeat(np.arange(len(F2)), 3)
     inc = sp.coo_matrix((np.ones(len(fid)), (fid, einv.reshape(-1))), shape=(len(F2), einv.max() + 1))
     ncomp, lab = connected_components((inc @ inc.T).tocsr(), directed=False)
@@ -681,14 +682,14 @@ def _check_surface(V, F):
             "run vesselgp.clean_mesh to remove them"
         )
     H = F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    E, ec = np.unique(np.sort(H, axis=1), axis=0, return_counts=True)
+    E, ec = unique_rows(np.sort(H, axis=1), return_counts=True)
     nm = int(np.count_nonzero(ec > 2))
     if nm:
         raise InvalidMeshError(
             f"mesh has {nm} non-manifold edges (shared by more than two faces); "
             "run vesselgp.clean_mesh to repair them"
         )
-    _, hc = np.unique(H, axis=0, return_counts=True)
+    _, hc = unique_rows(H, return_counts=True)
     bad = int(np.count_nonzero(hc > 1))
     if bad:
         raise InvalidMeshError(
@@ -699,9 +700,11 @@ def _check_surface(V, F):
     if len(B):
         # an open seam: boundary edges lying on top of other boundary edges (a
         # split bow-tie vertex alone, as clean_mesh leaves it, is not one)
-        _, pos = np.unique(V + 0.0, axis=0, return_inverse=True)
-        pos = pos.reshape(-1)
-        _, bc = np.unique(np.sort(pos[B], axis=1), axis=0, return_counts=True)
+        bv = np.unique(B)  # only boundary vertices can form a seam
+        _, posb = np.unique(V[bv] + 0.0, axis=0, return_inverse=True)
+        pos = np.zeros(len(V), np.int64)
+        pos[bv] = posb.reshape(-1)
+        _, bc = unique_rows(np.sort(pos[B], axis=1), return_counts=True)
         dup = int(np.count_nonzero(bc > 1))
         if dup:
             raise InvalidMeshError(
