@@ -211,8 +211,9 @@ class TorsionMeter:
         # the rest s mapped onto the deformed axis is a close start: Newton only
         s_start = self._map_s(axis, nodes)
         s = np.clip(axis.project(V, s_start), 0.0, 1.0)
-        local, _ = _local_coords(axis, V, s)
-        theta = np.arctan2(local[:, 2], local[:, 1])
+        pts, fr = axis.at(s)
+        d = V - pts
+        theta = np.arctan2(np.einsum("ij,ij->i", d, fr[:, 2]), np.einsum("ij,ij->i", d, fr[:, 1]))
         return axis, nodes, theta
 
     def __call__(self, V_deformed):
