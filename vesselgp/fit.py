@@ -530,10 +530,8 @@ def _nondegenerate_faces(V, F):
     surface). A vertex used only by such faces has no area and no field value:
     that raises :class:`InvalidMeshError` suggesting :func:`vesselgp.clean_mesh`.
     """
-    T = V[F]
-    dbl = np.linalg.norm(np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0]), axis=1)
-    e2 = np.max([np.einsum("ij,ij->i", d, d) for d in (T[:, 1] - T[:, 0], T[:, 2] - T[:, 1], T[:, 0] - T[:, 2])],
-                axis=0)
+    dbl = igl.doublearea(V, F)
+    e2 = igl.edge_lengths(V, F).max(axis=1) ** 2
     bad = ~(dbl > 2.0 * tol.DEGENERATE_AREA * e2)
     if not bad.any():
         return F

@@ -58,7 +58,7 @@ GC_OUTLIER_SIGMAS = 4.0
 #: they sit inside the bend further than the local radius of curvature.
 GC_MIN_STRETCH = 0.1
 #: Above this many vertices the harmonic initialisation runs on a vertex-clustered copy.
-GC_COARSE_INIT_VERTICES = 30000
+GC_COARSE_INIT_VERTICES = 15000
 #: Cells of that copy are at most this many (end) radii wide, so they never bridge the lumen.
 GC_COARSE_CELL_RADII = 0.3
 #: The fit iterates on at most about this many vertices (evenly thinned); the final
@@ -93,7 +93,7 @@ SYNTH_ARCLENGTH_QUADRATURE = 40001
 #: Angular samples of a cross-section for its perimeter-mean radius (Eq. 4 convention).
 SYNTH_SECTION_SAMPLES = 720
 #: Above this many vertices the harmonic initialisation runs on a vertex-clustered copy.
-GC_COARSE_INIT_VERTICES = 30000
+GC_COARSE_INIT_VERTICES = 15000
 #: Cells of that copy are at most this many (end) radii wide, so they never bridge the lumen.
 GC_COARSE_CELL_RADII = 0.3
 #: The fit iterates on at most about this many vertices (evenly thinned); the final
