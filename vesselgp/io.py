@@ -36,9 +36,9 @@ from pathlib import Path
 import numpy as np
 
 from ._validate import as_mesh
-from .errors import InvalidMeshError, MeshReadError, MeshWriteError
+from .errors import InvalidMeshError, MeshReadError, MeshWriteError, VesselError
 
-__all__ = ["read_mesh", "write_mesh", "READ_FORMATS", "WRITE_FORMATS"]
+__all__ = ["read_mesh", "write_mesh", "atomic_write", "READ_FORMATS", "WRITE_FORMATS"]
 
 log = logging.getLogger(__name__)
 
@@ -461,32 +461,9 @@ def write_mesh(path, V, F, vertex_colors=None, vertex_scalars=None):
         )
     if colors is not None and ext == ".stl":
         raise MeshWriteError(f"{p}: STL cannot store vertex colours; write .ply, .vtp, .obj or .off")
-    folder = p.parent if str(p.parent) else Path(".")
-    if not folder.is_dir():
-        raise MeshWriteError(f"{p}: folder {folder} does not exist; create it first")
     writer = {".ply": _write_ply, ".obj": _write_obj, ".off": _write_off,
               ".stl": _write_stl, ".vtp": _write_vtp}[ext]
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
-    except OSError as exc:
-        raise MeshWriteError(f"{p}: cannot create a file in {folder} ({exc}); check permissions") from None
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            writer(fh, V, F, colors, scalars)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, p)
-    except BaseException as exc:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        if not isinstance(exc, Exception):
-            raise
-        raise MeshWriteError(
-            f"{p}: writing failed ({type(exc).__name__}: {exc}); nothing was written, "
-            "any existing file is unchanged"
-        ) from exc
+    atomic_write(p, lambda fh: writer(fh, V, F, colors, scalars), binary=True)
     log.info("wrote %s: %d vertices, %d faces", p, len(V), len(F))
 
 
@@ -632,3 +609,67 @@ def _write_vtp(fh, V, F, colors, scalars):
     _vtp_ascii_array(fh, "Int64", "connectivity", F, 1, "%d", cols=3)
     _vtp_ascii_array(fh, "Int64", "offsets", 3 * np.arange(1, len(F) + 1), 1, "%d")
     fh.write(b"      </Polys>\n    </Piece>\n  </PolyData>\n</VTKFile>\n")
+
+
+def atomic_write(path, writer, *, binary=False):
+    """Write a file atomically: ``writer(fh)`` fills a temporary file, then it is renamed.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination; its folder must exist.
+    writer : callable
+        Called with an open file object (text, UTF-8, or binary).
+    binary : bool
+        Open the temporary file in binary mode.
+
+    Raises
+    ------
+    MeshWriteError
+        The folder is missing or the write failed; nothing is left behind and
+        an existing file at ``path`` is untouched.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> p = os.path.join(tempfile.mkdtemp(), "a.txt")
+    >>> atomic_write(p, lambda fh: fh.write("hello\\n"))
+    >>> open(p).read()
+    'hello\\n'
+    """
+    p = Path(os.fspath(path))
+    folder = p.parent if str(p.parent) else Path(".")
+    if not folder.is_dir():
+        raise MeshWriteError(f"{p}: folder {folder} does not exist; create it first")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise MeshWriteError(f"{p}: cannot create a file in {folder} ({exc}); check permissions") from None
+    try:
+        if binary:
+            fh = os.fdopen(fd, "wb")
+        else:
+            fh = os.fdopen(fd, "w", encoding="utf-8", newline="\n")
+        with fh:
+            writer(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, p)
+    except BaseException as exc:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        if not isinstance(exc, Exception) or isinstance(exc, VesselError):
+            raise
+        raise MeshWriteError(
+            f"{p}: writing failed ({type(exc).__name__}: {exc}); nothing was written, "
+            "any existing file is unchanged"
+        ) from exc
+
+
+def _umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

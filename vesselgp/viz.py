@@ -24,6 +24,7 @@ import numpy as np
 
 from . import tolerances as tol
 from ._validate import as_mesh
+from .io import atomic_write  # noqa: F401  (re-exported: the CLI and demo use it)
 from .errors import MeshWriteError, VesselError
 
 log = logging.getLogger(__name__)
@@ -53,67 +54,6 @@ def _mpl():
     import matplotlib.pyplot as plt
 
     return matplotlib, plt
-
-
-def atomic_write(path, writer, *, binary=False):
-    """Write a file atomically: ``writer(fh)`` fills a temporary file, then it is renamed.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        Destination; its folder must exist.
-    writer : callable
-        Called with an open file object (text, UTF-8, or binary).
-    binary : bool
-        Open the temporary file in binary mode.
-
-    Raises
-    ------
-    MeshWriteError
-        The folder is missing or the write failed; nothing is left behind and
-        an existing file at ``path`` is untouched.
-
-    Examples
-    --------
-    >>> import tempfile, os
-    >>> p = os.path.join(tempfile.mkdtemp(), "a.txt")
-    >>> atomic_write(p, lambda fh: fh.write("hello\\n"))
-    >>> open(p).read()
-    'hello\\n'
-    """
-    p = Path(os.fspath(path))
-    folder = p.parent if str(p.parent) else Path(".")
-    if not folder.is_dir():
-        raise MeshWriteError(f"{p}: folder {folder} does not exist; create it first")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=folder)
-    except OSError as exc:
-        raise MeshWriteError(f"{p}: cannot create a file in {folder} ({exc}); check permissions") from None
-    try:
-        if binary:
-            fh = os.fdopen(fd, "wb")
-        else:
-            fh = os.fdopen(fd, "w", encoding="utf-8", newline="\n")
-        with fh:
-            writer(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, p)
-    except BaseException as exc:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        if not isinstance(exc, Exception) or isinstance(exc, VesselError):
-            raise
-        raise MeshWriteError(f"{p}: writing failed ({type(exc).__name__}: {exc}); nothing was written") from exc
-
-
-def _umask():
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def _symmetric_range(values, vmin, vmax):
