@@ -161,12 +161,12 @@ class JoinResult:
     algorithm: str = "LN_BOBYQA"
 
 
-def _fallback_ends(V, F):
-    """The two boundary loops as ends, for open meshes when :mod:`vesselgp.mesh` is unavailable."""
+def _loop_ends(V, F):
+    """The two boundary loops of an open mesh as its ends (``ends="loops"``)."""
     loops = [np.asarray(lp, np.int64) for lp in igl.boundary_loop_all(F)]
     if len(loops) != 2:
         raise EndsError(
-            f"mesh has {len(loops)} boundary loops; pass ends= or gc= (vesselgp.mesh is not available)"
+            f"mesh has {len(loops)} boundary loops, ends='loops' needs exactly 2; pass ends=(i, j) or gc="
         )
     return tuple(_SimpleEnd(V, lp, ordered=True) for lp in loops)
 
@@ -175,12 +175,7 @@ def _fit(V, F, ends):
     from .fit import fit_generalized_cylinder
 
     if isinstance(ends, str) and ends == "loops":
-        ends = _fallback_ends(V, F)
-    elif ends is None:
-        try:
-            from . import mesh  # noqa: F401
-        except ImportError:
-            ends = _fallback_ends(V, F)
+        ends = _loop_ends(V, F)
     return fit_generalized_cylinder(V, F, ends=ends)
 
 
