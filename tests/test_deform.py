@@ -3,8 +3,9 @@ import igl
 import numpy as np
 import pytest
 
-from vesselgp.deform import RodDeformer, _SimpleEnd, deform_vessel
+from vesselgp.deform import RodDeformer, deform_vessel
 from vesselgp.errors import EndsError, FrameError
+from vesselgp.mesh import vessel_ends
 from vesselgp.fit import fit_generalized_cylinder
 from vesselgp.join import Frame
 from vesselgp.synthetic import synthetic_vessel
@@ -19,7 +20,10 @@ def tube(curve="straight", na=NA):
     V, F = ves.V, ves.F
     rings = len(V) // na
     first, last = np.arange(na), np.arange((rings - 1) * na, rings * na)
-    gc = fit_generalized_cylinder(V, F, ends=(_SimpleEnd(V, first), _SimpleEnd(V, last)))
+    # s = 0 at the first ring: pick the detected ends by the rings they hold
+    ends = vessel_ends(V, F)
+    at = [next(i for i, e in enumerate(ends) if np.isin(ring, e.vertices).all()) for ring in (first, last)]
+    gc = fit_generalized_cylinder(V, F, ends=tuple(at))
     return V, F, first, last, rings, gc
 
 

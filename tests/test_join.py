@@ -21,16 +21,14 @@ def frame_of(case):
 @pytest.fixture(scope="module")
 def case1():
     c = paper_case(1, resolution=0.5)  # 24 points per ring, ~2k vertices
-    # ends from the two boundary loops (independent of vesselgp.mesh)
-    p = JoinProblem(c.V, c.F, c.fixed, c.moving, frame_of(c), ends="loops")
+    p = JoinProblem(c.V, c.F, c.fixed, c.moving, frame_of(c))
     return c, p, minimize_torsion(p)
 
 
 @pytest.fixture(scope="module")
 def case2():
     c = paper_case(2, resolution=0.375)  # 24 points per ring, ~2k vertices
-    # ends from the two boundary loops (independent of vesselgp.mesh)
-    p = JoinProblem(c.V, c.F, c.fixed, c.moving, frame_of(c), ends="loops")
+    p = JoinProblem(c.V, c.F, c.fixed, c.moving, frame_of(c))
     return c, p, minimize_torsion(p)
 
 
@@ -46,7 +44,7 @@ def test_frame_is_validated_and_normalised():
         Frame([0, 0, 0], [0, 0, 1], [0, 0, -2])
     with pytest.raises(FrameError):
         Frame([0, 0, np.nan], [0, 0, 1], [1, 0, 0])
-    with pytest.raises(Exception):
+    with pytest.raises(ValueError, match="read-only"):
         f.origin[0] = 5.0  # frozen, read-only arrays
 
 

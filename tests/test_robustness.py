@@ -498,7 +498,7 @@ def test_nlopt_bad_algorithm_and_problem():
 def test_nlopt_nan_energy_on_a_real_problem(monkeypatch):
     c = paper_case(1, resolution=0.25)
     p = vesselgp.JoinProblem(c.V, c.F, c.fixed, c.moving,
-                             vesselgp.Frame(c.target_origin, c.target_tangent, c.target_normal), ends="loops")
+                             vesselgp.Frame(c.target_origin, c.target_tangent, c.target_normal))
     calls = {"n": 0}
     real = vesselgp.JoinProblem.energy
 

@@ -474,9 +474,8 @@ def deform_vessel(V, F, fixed, moving, target, angle=0.0, *, method="rod_arap", 
     >>> ves = synthetic_vessel("straight", radius=1.5, n_around=16, remesh=False)
     >>> na = 16; V = ves.V; rings = len(V) // na
     >>> fixed, moving = np.arange(na), np.arange((rings - 1) * na, rings * na)
-    >>> gc = _test_gc(V, ves.F, fixed, moving)
-    >>> end = (V[moving].mean(0), [0, 0, 1], gc.at([1.0])[1][0, 1])
-    >>> X = deform_vessel(V, ves.F, fixed, moving, end, np.pi / 2, gc=gc, method="rod")
+    >>> d = RodDeformer(V, ves.F, fixed, moving, method="rod")
+    >>> X = d.deform((d.end_center, d.end_tangent, d.end_normal), np.pi / 2)
     >>> mid = (rings // 2) * na
     >>> a = np.degrees(np.arctan2(*X[mid, [1, 0]]) - np.arctan2(*V[mid, [1, 0]]))
     >>> bool(abs(a - 90 * (rings // 2) / (rings - 1)) < 1e-6)
@@ -485,32 +484,3 @@ def deform_vessel(V, F, fixed, moving, target, angle=0.0, *, method="rod_arap", 
     d = RodDeformer(V, F, fixed, moving, gc=gc, ends=ends, method=method,
                     arap_iterations=arap_iterations, stiffness=stiffness)
     return d.deform(target, angle)
-
-
-def _test_gc(V, F, a, b):
-    """GC fitted between two vertex loops given by ids (for doctests without vesselgp.mesh)."""
-    from .fit import fit_generalized_cylinder
-
-    return fit_generalized_cylinder(V, F, ends=(_SimpleEnd(V, a), _SimpleEnd(V, b)))
-
-
-class _SimpleEnd:
-    """Minimal open end for fitting without :mod:`vesselgp.mesh`.
-
-    ``ids`` in loop order give the length-weighted centroid of the loop as centre
-    (``ordered=True``); otherwise the mean of the vertices.
-    """
-
-    kind = "open"
-
-    def __init__(self, V, ids, ordered=False):
-        self.vertices = np.asarray(ids, np.int64)
-        self.loop = self.vertices
-        P = V[self.vertices]
-        if ordered and len(P) >= 3:
-            Q = np.roll(P, -1, axis=0)
-            seg = np.linalg.norm(Q - P, axis=1)
-            self.center = ((P + Q) * seg[:, None]).sum(axis=0) / (2 * seg.sum())
-        else:
-            self.center = P.mean(axis=0)
-        self.radius = float(np.linalg.norm(P - self.center, axis=1).mean())

@@ -45,7 +45,7 @@ from . import tolerances as tol
 from ._arrays import unique_rows
 from ._validate import as_mesh, as_vector
 from .curves import _perpendicular, chord_length, rotation_minimizing_frames
-from .errors import EndsError, InvalidMeshError, NotTubularError, VesselError
+from .errors import InvalidMeshError, NotTubularError, VesselError
 
 log = logging.getLogger(__name__)
 
@@ -485,7 +485,7 @@ def _initial_axis(V, F, e0, e1, area, K0, rscale):
     if arc[-1] <= 0:
         raise NotTubularError("mesh is not tubular: its two ends coincide")
     s0 = np.interp(phi, ph, arc / arc[-1])
-    return pts, s0, phi
+    return pts, s0
 
 
 def _resample_nodes(pts, K):
@@ -664,14 +664,15 @@ def fit_generalized_cylinder(
     if n_ends > 2:
         area = np.where(_path_mask(V, Fg, e0, e1, rscale), area, 0.0)
 
-    # -- initialisation: harmonic field + level-band centroids
-    chord = float(np.linalg.norm(np.asarray(e1.center) - np.asarray(e0.center)))
-    K0 = int(np.clip(chord / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
-    pts, s_prev, _ = _initial_axis(V, Fg, e0, e1, np.where(end_region, 0.0, area), K0, rscale)
-    L0 = chord_length(pts)[-1]
     # Shorter than its diameter: judged by the distance between the end centres
     # (the initial axis of such a stub is not reliable).
+    chord = float(np.linalg.norm(np.asarray(e1.center) - np.asarray(e0.center)))
     _check_aspect(chord, rscale)
+
+    # -- initialisation: harmonic field + level-band centroids
+    K0 = int(np.clip(chord / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
+    pts, s_prev = _initial_axis(V, Fg, e0, e1, np.where(end_region, 0.0, area), K0, rscale)
+    L0 = chord_length(pts)[-1]
     K = int(n_nodes or np.clip(L0 / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
     nodes = _resample_nodes(pts, K)
     nodes[0], nodes[-1] = e0.center, e1.center

@@ -29,7 +29,7 @@ import numpy as np
 
 from . import tolerances as tol
 from ._validate import as_mesh, as_vector
-from .deform import RodDeformer, _SimpleEnd, as_vertex_ids
+from .deform import RodDeformer, as_vertex_ids
 from .errors import EndsError, FrameError, OptimizationError
 from .torsion import TorsionMeter, TorsionProfile
 
@@ -161,21 +161,9 @@ class JoinResult:
     algorithm: str = "LN_BOBYQA"
 
 
-def _loop_ends(V, F):
-    """The two boundary loops of an open mesh as its ends (``ends="loops"``)."""
-    loops = [np.asarray(lp, np.int64) for lp in igl.boundary_loop_all(F)]
-    if len(loops) != 2:
-        raise EndsError(
-            f"mesh has {len(loops)} boundary loops, ends='loops' needs exactly 2; pass ends=(i, j) or gc="
-        )
-    return tuple(_SimpleEnd(V, lp, ordered=True) for lp in loops)
-
-
 def _fit(V, F, ends):
     from .fit import fit_generalized_cylinder
 
-    if isinstance(ends, str) and ends == "loops":
-        ends = _loop_ends(V, F)
     return fit_generalized_cylinder(V, F, ends=ends)
 
 
@@ -203,9 +191,7 @@ class JoinProblem:
     gc : GeneralizedCylinder, optional
         Rest fit of ``V`` (fitted here when omitted).
     ends : optional
-        Ends for that fit (see :func:`vesselgp.fit_generalized_cylinder`), or
-        ``"loops"``: the two boundary loops of an open mesh, centred at their
-        length-weighted centroids (no end detection needed).
+        Ends for that fit (see :func:`vesselgp.fit_generalized_cylinder`).
     arap_iterations : int, optional
     stiffness : {"uniform", "radius4"}
     smoothing : float, optional
@@ -224,7 +210,7 @@ class JoinProblem:
     >>> from vesselgp.synthetic import paper_case
     >>> c = paper_case(1, resolution=0.25)
     >>> p = JoinProblem(c.V, c.F, c.fixed, c.moving,
-    ...                 Frame(c.target_origin, c.target_tangent, c.target_normal), ends="loops")
+    ...                 Frame(c.target_origin, c.target_tangent, c.target_normal))
     >>> X = p.deform(0.3)
     >>> bool(np.allclose(X[c.fixed], c.V[c.fixed]))
     True
@@ -356,7 +342,7 @@ def minimize_torsion(problem, *, xtol=tol.JOIN_XTOL, max_evals=tol.JOIN_MAX_EVAL
     >>> from vesselgp.synthetic import paper_case
     >>> c = paper_case(1, resolution=0.25, pre_rotation=0.5)
     >>> p = JoinProblem(c.V, c.F, c.fixed, c.moving,
-    ...                 Frame(c.target_origin, c.target_tangent, c.target_normal), ends="loops")
+    ...                 Frame(c.target_origin, c.target_tangent, c.target_normal))
     >>> res = minimize_torsion(p)
     >>> res.energy < 0.01 * p.energy(0.0), res.n_evals < 20
     (True, True)
