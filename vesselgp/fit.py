@@ -39,6 +39,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.interpolate import make_interp_spline
+from scipy.linalg import solveh_banded
 from scipy.spatial import cKDTree
 
 from . import tolerances as tol
@@ -305,7 +306,7 @@ def _diff(K, order):
     return D
 
 
-def _circle_update(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_ends=True, absolute=True):
+def _circle_update(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_ends=True):
     """One linear solve of the area-weighted Kasa circle fit with hat functions in s.
 
     Unknowns per node: centre correction ``(cx, cy)`` in the node frame (U, V)
@@ -313,41 +314,90 @@ def _circle_update(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_end
     ``(x^2 + y^2 - 2 cx x - 2 cy y - d)``. Regulariser: ``lam`` times the second
     difference of the corrected 3-D axis (Eq. 2's lambda term, second order).
 
+    The normal equations are assembled straight into banded form (unknowns
+    interleaved per node, bandwidth 7) and solved by banded Cholesky: O(n + K)
+    with no sparse-matrix algebra.
+
     Returns the corrections as 3-D vectors, (K, 3).
     """
     K = len(centers)
-    B = _basis_matrix(s, K)
+    n3 = 3 * K
+    j, t = _hat(s, K)
     x, y = local[:, 1], local[:, 2]
     sw = np.sqrt(w) / (2.0 * rscale)
-    A = sp.hstack(
-        [B.multiply((2 * x * sw)[:, None]), B.multiply((2 * y * sw)[:, None]), B.multiply(sw[:, None])]
-    ).tocsr()
+    c = (2 * x * sw, 2 * y * sw, sw)  # coefficients of cx, cy, d in each residual
     b = (x * x + y * y) * sw
-    N = (A.T @ A).tocsr()
-    rhs = A.T @ b
-    Wbar = float(N.diagonal()[:K].mean())
-    U = axis_frames_nodes[:, 1]
-    V = axis_frames_nodes[:, 2]
-    D2 = _diff(K, 2)
-    Z = sp.csr_matrix((K - 2, K))
-    for dim in range(3):
-        R = sp.hstack([D2 @ sp.diags(U[:, dim]), D2 @ sp.diags(V[:, dim]), Z]).tocsr()
-        N = N + lam * Wbar * (R.T @ R)
-        if absolute:
-            rhs = rhs - lam * Wbar * (R.T @ (D2 @ centers[:, dim]))
+    phi = (1.0 - t, t)  # hat weights of nodes j and j + 1
+    rows, cols, vals = [], [], []
+    rhs = np.zeros(n3)
+    jj = np.arange(K - 1)
+    for p in range(2):
+        for a in range(3):
+            rhs[3 * (jj + p) + a] += np.bincount(j, c[a] * phi[p] * b, minlength=K - 1)
+            for q in range(2):
+                for bb in range(3):
+                    if 3 * p + a < 3 * q + bb:
+                        continue  # lower triangle only
+                    rows.append(3 * (jj + p) + a)
+                    cols.append(3 * (jj + q) + bb)
+                    vals.append(np.bincount(j, c[a] * c[bb] * phi[p] * phi[q], minlength=K - 1))
+    Wbar = float(_node_diagonal(j, c[0], phi, K).mean())
+    # Eq. 2's lambda on the second difference of the corrected axis, sum_m |D2 (C + Delta)|^2
+    # with Delta_k = cx_k U_k + cy_k V_k
+    E = (axis_frames_nodes[:, 1], axis_frames_nodes[:, 2])
+    d2c = centers[:-2] - 2 * centers[1:-1] + centers[2:]
+    m = np.arange(K - 2)
+    wts = (1.0, -2.0, 1.0)
+    lw = lam * Wbar
+    for p in range(3):
+        for a in range(2):
+            rhs[3 * (m + p) + a] -= lw * wts[p] * np.einsum("ij,ij->i", E[a][m + p], d2c)
+            for q in range(3):
+                for bb in range(2):
+                    if 3 * p + a < 3 * q + bb:
+                        continue
+                    rows.append(3 * (m + p) + a)
+                    cols.append(3 * (m + q) + bb)
+                    vals.append(lw * wts[p] * wts[q] * np.einsum("ij,ij->i", E[a][m + p], E[bb][m + q]))
     # keep d well posed where a node has no data (d is an area: its weight is
     # divided by rscale^2 so that the fit is the same in any length unit)
-    D1 = _diff(K, 1)
-    Rd = sp.hstack([sp.csr_matrix((K - 1, 2 * K)), D1]).tocsr()
-    N = N + 1e-6 * Wbar / rscale**2 * (Rd.T @ Rd)
-    free = np.ones(3 * K, bool)
+    ed = 1e-6 * Wbar / rscale**2
+    k1 = np.arange(K - 1)
+    rows += [3 * k1 + 2, 3 * k1 + 5, 3 * k1 + 5]
+    cols += [3 * k1 + 2, 3 * k1 + 5, 3 * k1 + 2]
+    vals += [np.full(K - 1, ed), np.full(K - 1, ed), np.full(K - 1, -ed)]
+    rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
     if pin_ends:
-        free[[0, K - 1, K, 2 * K - 1]] = False
-    sol = np.zeros(3 * K)
-    Nf = N[free][:, free]
-    sol[free] = _solve(Nf, rhs[free])
-    cx, cy = sol[:K], sol[K : 2 * K]
-    return cx[:, None] * U + cy[:, None] * V
+        pinned = np.array([0, 1, 3 * (K - 1), 3 * (K - 1) + 1])
+        keep = ~(np.isin(rows, pinned) | np.isin(cols, pinned))
+        rows, cols, vals = (np.concatenate([v[keep], e]) for v, e in zip((rows, cols, vals), (pinned, pinned, np.ones(4))))
+        rhs[pinned] = 0.0
+    bw = int((rows - cols).max())
+    ab = np.bincount((rows - cols) * n3 + cols, vals, minlength=(bw + 1) * n3).reshape(bw + 1, n3)
+    sol = _solve_banded(ab, rhs)
+    return sol[0::3, None] * E[0] + sol[1::3, None] * E[1]
+
+
+def _node_diagonal(j, c0, phi, K):
+    """Diagonal of the cx block of the data term: sum of (c0 phi)^2 onto each node."""
+    d = np.zeros(K)
+    d[:-1] += np.bincount(j, (c0 * phi[0]) ** 2, minlength=K - 1)
+    d[1:] += np.bincount(j, (c0 * phi[1]) ** 2, minlength=K - 1)
+    return d
+
+
+def _solve_banded(ab, rhs):
+    """Banded Cholesky solve (lower form); failure means the surface does not surround an axis."""
+    try:
+        x = solveh_banded(ab, rhs, lower=True)
+    except (np.linalg.LinAlgError, ValueError):
+        x = None
+    if x is None or not np.all(np.isfinite(x)):
+        raise NotTubularError(
+            "mesh is not tubular: the generalized-cylinder fit is singular (the surface does not "
+            "surround an axis: flat, collapsed or torn); check the mesh, e.g. with vesselgp.clean_mesh"
+        )
+    return x
 
 
 def _radius_fit(s, rho, w, K, mu):

@@ -75,6 +75,10 @@ MIN_ASPECT = 1.0
 #: The circle-fit correction of the deformed axis (after Eq. 6) uses at most about
 #: this many evenly thinned vertices; every vertex is still re-parameterised.
 TORSION_RECOVERY_VERTICES = 20000
+#: Eq. 7's circular means use at most about this many evenly thinned vertices (the
+#: rest and deformed angles of the same subset); each bin still averages hundreds of
+#: vertices, and ``TorsionProfile.vertex_alpha`` is given for every vertex.
+TORSION_MEAN_VERTICES = 50000
 #: Bins of Eq. 7's circular mean per axis node (node spacing is half a radius).
 TORSION_BINS_PER_NODE = 2
 #: Smoothing length of the material-angle profile alpha(s), in axis-node
@@ -92,13 +96,6 @@ SYNTH_AXIS_SAMPLES = 2001
 SYNTH_ARCLENGTH_QUADRATURE = 40001
 #: Angular samples of a cross-section for its perimeter-mean radius (Eq. 4 convention).
 SYNTH_SECTION_SAMPLES = 720
-#: Above this many vertices the harmonic initialisation runs on a vertex-clustered copy.
-GC_COARSE_INIT_VERTICES = 15000
-#: Cells of that copy are at most this many (end) radii wide, so they never bridge the lumen.
-GC_COARSE_CELL_RADII = 0.3
-#: The fit iterates on at most about this many vertices (evenly thinned); the final
-#: parameterisation uses every vertex.
-GC_MAX_FIT_VERTICES = 60000
 #: Newton steps refining the projection of a vertex onto the true axis.
 SYNTH_NEWTON_STEPS = 4
 #: Distance to an end plane (times the mean radius) below which a vertex lies on that end.

@@ -8,7 +8,9 @@ deformation method:
    by the circle-fit correction of :mod:`vesselgp.fit` that removes Eq. 1's bend
    bias;
 2. its RMF is computed by double reflection (Section 1) and every vertex is
-   re-parameterised ``(s_i, theta_i)`` on the deformed axis;
+   re-parameterised ``(s_i, theta_i)`` on the deformed axis (above
+   ``tolerances.TORSION_MEAN_VERTICES`` vertices, an evenly thinned subset of
+   that size: each bin of step 3 still averages hundreds of vertices);
 3. ``alpha(s)`` is Eq. 7's mean of ``theta_i - theta_i^0`` over the vertices of
    each stretch of axis, taken as a *circular* mean of wrapped differences and
    then unwrapped along ``s`` so that twists of several turns are measured;
@@ -25,6 +27,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -78,16 +81,20 @@ class TorsionProfile:
         Deformed axis points at ``s``.
     frames : (K, 3, 3) float64
         RMF of the deformed axis at ``s`` (rows ``T, U, V``).
+    bin_s, bin_alpha : (B,) float64
+        The raw, unsmoothed circular means of Eq. 7 per bin (unwrapped), for
+        inspection.
+    axis_scale : float
+        Mean rest radius: the length below whose reciprocal the axis counts as
+        straight (see :func:`vesselgp.curves.frenet`).
     curvature : (K,) float64
-        Frenet curvature of the deformed axis, per mesh unit.
+        Frenet curvature of the deformed axis, per mesh unit (computed on
+        first access: the torsion energy does not need it).
     frenet_torsion : (K,) float64
         Frenet torsion of the deformed axis (the *other* torsion of Section 1,
         as reported by VMTK), per mesh unit; NaN where the axis is straight.
     frenet_defined : (K,) bool
         False where the axis is straight and the Frenet frame does not exist.
-    bin_s, bin_alpha : (B,) float64
-        The raw, unsmoothed circular means of Eq. 7 per bin (unwrapped), for
-        inspection.
     """
 
     s: np.ndarray
@@ -100,11 +107,25 @@ class TorsionProfile:
     vertex_alpha: np.ndarray = field(repr=False)
     centers: np.ndarray = field(repr=False)
     frames: np.ndarray = field(repr=False)
-    curvature: np.ndarray = field(repr=False)
-    frenet_torsion: np.ndarray = field(repr=False)
-    frenet_defined: np.ndarray = field(repr=False)
     bin_s: np.ndarray = field(repr=False)
     bin_alpha: np.ndarray = field(repr=False)
+    axis_scale: float = field(repr=False)
+
+    @cached_property
+    def _frenet(self):
+        return frenet(self.centers, length_scale=self.axis_scale, smooth=True)
+
+    @property
+    def curvature(self):
+        return self._frenet.curvature
+
+    @property
+    def frenet_torsion(self):
+        return self._frenet.torsion
+
+    @property
+    def frenet_defined(self):
+        return self._frenet.defined
 
 
 def _wrap(a):
@@ -166,6 +187,7 @@ class TorsionMeter:
         self.K = K
         self.n_bins = tol.TORSION_BINS_PER_NODE * K
         self._sub = _subset(self.n, tol.TORSION_RECOVERY_VERTICES)  # bias correction on a thinned subset
+        self._mean = _subset(self.n, tol.TORSION_MEAN_VERTICES)  # Eq. 7 means on a thinned subset
         self.s0 = rest.vertex_s
         self.w = rest.vertex_weight
         self.area = rest.vertex_area
@@ -189,7 +211,7 @@ class TorsionMeter:
         sub = self._sub
         Vs = V[sub]
         for _ in range(self.correct_bias):
-            s = self._map_s(axis, nodes)[sub]
+            s = self._map_s(axis, nodes, sub)
             local, jac = _local_coords(axis, Vs, s)
             w = self.area[sub] / np.clip(jac, tol.GC_MIN_STRETCH, None)
             _, frn = axis.at(self._node_s(axis, nodes))
@@ -203,16 +225,20 @@ class TorsionMeter:
         c = np.concatenate([[0.0], np.cumsum(seg)])
         return c / c[-1]
 
-    def _map_s(self, axis, nodes):
-        return np.interp(self.s0, np.linspace(0, 1, self.K), self._node_s(axis, nodes))
+    def _map_s(self, axis, nodes, sub):
+        """The rest ``s`` of vertices ``sub`` mapped onto the deformed axis."""
+        return np.interp(self.s0[sub], np.linspace(0, 1, self.K), self._node_s(axis, nodes))
 
     def _parameterise(self, V):
+        """Deformed axis and the angle ``theta_i`` of each vertex of the Eq. 7 subset."""
         axis, nodes = self._recover_axis(V)
         # the rest s mapped onto the deformed axis is a close start: Newton only
-        s_start = self._map_s(axis, nodes)
-        s = np.clip(axis.project(V, s_start), 0.0, 1.0)
+        sub = self._mean
+        Vm = V[sub]
+        s_start = self._map_s(axis, nodes, sub)
+        s = np.clip(axis.project(Vm, s_start), 0.0, 1.0)
         pts, fr = axis.at(s)
-        d = V - pts
+        d = Vm - pts
         theta = np.arctan2(np.einsum("ij,ij->i", d, fr[:, 2]), np.einsum("ij,ij->i", d, fr[:, 1]))
         return axis, nodes, theta
 
@@ -240,15 +266,16 @@ class TorsionMeter:
 
     def _profile(self, axis, nodes, dtheta):
         K = self.K
-        w = self.w
+        w = self.w[self._mean]
+        s0 = self.s0[self._mean]
         # Eq. 7 per bin: circular mean of the wrapped differences
         nb = self.n_bins
-        b = np.minimum((self.s0 * nb).astype(np.int64), nb - 1)
+        b = np.minimum((s0 * nb).astype(np.int64), nb - 1)
         z = np.bincount(b, weights=w * np.cos(dtheta), minlength=nb) + 1j * np.bincount(
             b, weights=w * np.sin(dtheta), minlength=nb
         )
         wb = np.bincount(b, weights=w, minlength=nb)
-        sb = np.bincount(b, weights=w * self.s0, minlength=nb)
+        sb = np.bincount(b, weights=w * s0, minlength=nb)
         ok = (wb > 0) & (np.abs(z) > 0)
         sb = sb[ok] / wb[ok]
         ab = np.unwrap(np.angle(z[ok]))
@@ -270,7 +297,6 @@ class TorsionMeter:
         energy = float(np.trapezoid(dspl(sq) ** 2, sq))
         total = float(spl(1.0) - a0)
         centers, frames = axis.at(self._node_s(axis, nodes))
-        fr = frenet(centers, length_scale=self.rscale, smooth=True)
         return TorsionProfile(
             s=sK,
             alpha=alpha,
@@ -282,11 +308,9 @@ class TorsionMeter:
             vertex_alpha=spl(self.s0) - a0,
             centers=centers,
             frames=frames,
-            curvature=fr.curvature,
-            frenet_torsion=fr.torsion,
-            frenet_defined=fr.defined,
             bin_s=sb,
             bin_alpha=ab - a0,
+            axis_scale=self.rscale,
         )
 
 
