@@ -174,6 +174,16 @@ def test_clean_mesh_duplicate_faces_and_orientation():
     assert len(np.unique(D, axis=0)) == len(D)
 
 
+def test_clean_mesh_coherent_input_is_kept_or_turned_outward():
+    V, F = capped_tube(n=16, rings=6)
+    V2, F2, rep = clean_mesh(V, F)  # coherent and outward: nothing to do
+    assert rep.faces_flipped == 0 and not rep.changed
+    np.testing.assert_array_equal(F2, F)
+    V3, F3, rep3 = clean_mesh(V, F[:, [0, 2, 1]])  # coherent but inward: every face turns
+    assert rep3.faces_flipped == len(F)
+    np.testing.assert_array_equal(F3, F)
+
+
 def test_clean_mesh_keep_largest_false_and_errors():
     V, F = tube(n=12, rings=4)
     V = np.vstack([V, [[9, 9, 9], [9.1, 9, 9], [9, 9.1, 9]]])

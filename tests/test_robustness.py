@@ -77,7 +77,7 @@ def assert_same_fit(gc, ref, rtol=1e-2):
 
 def test_one_error_hierarchy():
     for cls in (vesselgp.MeshReadError, vesselgp.MeshWriteError, InvalidMeshError, NotTubularError,
-                EndsError, MismatchError, FrameError, OptimizationError):
+                EndsError, MismatchError, FrameError, OptimizationError, vesselgp.OptionError):
         assert issubclass(cls, VesselError) and issubclass(cls, ValueError)
 
 
@@ -415,6 +415,16 @@ def test_deform_vessel_with_zero_tangent_target():
     c = paper_case(1, resolution=0.25)
     with pytest.raises(FrameError, match="tangent is the zero vector"):
         vesselgp.deform_vessel(c.V, c.F, c.fixed, c.moving, (c.target_origin, [0, 0, 0], c.target_normal))
+
+
+@pytest.mark.parametrize("kw, match", [({"method": "bogus"}, "unknown deformation method 'bogus'; use one of"),
+                                       ({"stiffness": "soft"}, "unknown stiffness 'soft'; use 'uniform'")])
+def test_unknown_keyword_option_values(tube, tube_fit, kw, match):
+    from vesselgp.deform import RodDeformer
+
+    with pytest.raises(vesselgp.OptionError, match=match) as e:
+        RodDeformer(tube.V, tube.F, [0], [len(tube.V) - 1], gc=tube_fit, **kw)
+    one_line(e)
 
 
 def test_rmf_relative_tolerances():

@@ -57,7 +57,7 @@ import scipy.sparse as sp
 from . import tolerances as tol
 from ._validate import as_mesh, as_vector
 from .curves import rotation_minimizing_frames, transport_angle
-from .errors import EndsError, FrameError, MismatchError
+from .errors import EndsError, FrameError, MismatchError, OptionError
 
 log = logging.getLogger(__name__)
 
@@ -205,9 +205,9 @@ class RodDeformer:
         V, F = as_mesh(V, F)
         n = len(V)
         if method not in METHODS:
-            raise ValueError(f"unknown deformation method {method!r}; use one of {', '.join(METHODS)}")
+            raise OptionError(f"unknown deformation method {method!r}; use one of {', '.join(METHODS)}")
         if stiffness not in ("uniform", "radius4"):
-            raise ValueError(f"unknown stiffness {stiffness!r}; use 'uniform' or 'radius4'")
+            raise OptionError(f"unknown stiffness {stiffness!r}; use 'uniform' or 'radius4'")
         fixed = as_vertex_ids(fixed, n, "fixed")
         moving = as_vertex_ids(moving, n, "moving")
         both = np.intersect1d(fixed, moving)

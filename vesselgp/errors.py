@@ -42,6 +42,10 @@ class OptimizationError(VesselError):
     """The minimum-torsion search failed (NLopt error or non-finite energies)."""
 
 
+class OptionError(VesselError):
+    """A keyword option has a value the function does not know (e.g. a method name)."""
+
+
 __all__ = [
     "VesselError",
     "MeshReadError",
@@ -52,4 +56,5 @@ __all__ = [
     "MismatchError",
     "FrameError",
     "OptimizationError",
+    "OptionError",
 ]

@@ -50,6 +50,14 @@ def _unique_edges(F):
     return unique_rows(E, return_counts=True)
 
 
+def _face_edges(F):
+    """Undirected edge id of each face corner edge (3 m,) (face-major) and faces per edge (e,)."""
+    a, b = F, F[:, [1, 2, 0]]
+    key = np.minimum(a, b) * (int(F.max()) + 1 if len(F) else 1) + np.maximum(a, b)  # one int64 per edge
+    _, inv, count = np.unique(key.ravel(), return_inverse=True, return_counts=True)
+    return inv, count
+
+
 def _median_edge(V, F):
     # over face corners: interior edges count twice, which leaves the median as it is
     return float(np.median(igl.edge_lengths(V, F)))
@@ -66,6 +74,17 @@ def _edge_graph(V, F):
     n = len(V)
     G = sp.coo_matrix((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
     return G + G.T
+
+
+def _coherent(F, einv, ecount):
+    """Whether every edge is manifold and its two faces traverse it in opposite directions.
+
+    ``einv, ecount`` are :func:`_face_edges` of ``F``.
+    """
+    if np.any(ecount > 2):
+        return False
+    up = np.bincount(einv, weights=(F < F[:, [1, 2, 0]]).ravel(), minlength=len(ecount))
+    return bool(np.all(up[ecount == 2] == 1))
 
 
 def _parity(F):
@@ -256,7 +275,8 @@ def clean_mesh(V, F, keep_largest=True):
     c["duplicate_faces_removed"] = run("meshing_remove_duplicate_faces")[1]
     c["zero_area_faces_removed"] = df + run("meshing_remove_null_faces")[1]
     Fm = ms.current_mesh().face_matrix().astype(np.int64)
-    c["non_manifold_edges_repaired"] = int(np.count_nonzero(_unique_edges(Fm)[1] > 2)) if len(Fm) else 0
+    edges = _face_edges(Fm)  # (edge id of each face corner, faces per edge), reused below
+    c["non_manifold_edges_repaired"] = int(np.count_nonzero(edges[1] > 2)) if len(Fm) else 0
     c["non_manifold_faces_removed"] = 0
     if c["non_manifold_edges_repaired"]:
         fins = _fin_faces(Fm)
@@ -278,38 +298,49 @@ def clean_mesh(V, F, keep_largest=True):
         raise InvalidMeshError("no faces left after cleaning; the mesh has only degenerate faces")
 
     before = ms.current_mesh().face_matrix().astype(np.int64)
-    ms.meshing_re_orient_faces_coherently()
+    unchanged = np.array_equal(before, Fm)  # no repair touched the faces since `edges`
+    coherent = unchanged and _coherent(Fm, *edges)
+    if not coherent:
+        ms.meshing_re_orient_faces_coherently()
     m = ms.current_mesh()
     F2 = m.face_matrix().astype(np.int64)
     V2 = m.vertex_matrix()
     vmap = np.rint(m.vertex_custom_scalar_attribute_array("vgp_id")).astype(np.int64)
     flipped = 0
-    if len(before) == len(F2):
+    same_faces = coherent  # F2 holds the faces of Fm, in the same order (re-orientation only flips)
+    if not coherent and len(before) == len(F2):
         S0, p0 = _parity(before)
         S1, p1 = _parity(F2)
-        o0, o1 = np.lexsort(S0.T[::-1]), np.lexsort(S1.T[::-1])
-        if np.array_equal(S0[o0], S1[o1]):
-            flipped = int(np.count_nonzero(p0[o0] != p1[o1]))
+        if np.array_equal(S0, S1):  # pymeshlab keeps the face order
+            flipped = int(np.count_nonzero(p0 != p1))
+            same_faces = unchanged
+        else:
+            o0, o1 = np.lexsort(S0.T[::-1]), np.lexsort(S1.T[::-1])
+            if np.array_equal(S0[o0], S1[o1]):
+                flipped = int(np.count_nonzero(p0[o0] != p1[o1]))
+    einv, ecount = edges if same_faces else _face_edges(F2)
 
-    # connected components by edge adjacency, keep the largest by area
-    Ekey = np.sort(F2[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    _, einv = unique_rows(Ekey, return_inverse=True)
-    fid = np.repeat(np.arange(len(F2)), 3)
-    inc = sp.coo_matrix((np.ones(len(fid)), (fid, einv.reshape(-1))), shape=(len(F2), einv.max() + 1))
-    ncomp, lab = connected_components((inc @ inc.T).tocsr(), directed=False)
+    # connected components by edge adjacency (faces joined through their shared
+    # edges: a face-edge incidence graph), keep the largest by area
+    m2, ne = len(F2), len(ecount)
+    fid = np.repeat(np.arange(m2), 3)
+    inc = sp.coo_matrix((np.ones(3 * m2), (fid, m2 + einv)), shape=(m2 + ne, m2 + ne))
+    ncomp, lab = connected_components(inc.tocsr(), directed=False)
+    lab = lab[:m2]  # every edge belongs to a face: the components are the face components
     removed = 0
     if keep_largest and ncomp > 1:
         area = np.bincount(lab, weights=np.linalg.norm(_face_vectors(V2, F2), axis=1))
         keep = lab == int(np.argmax(area))
         removed = ncomp - 1
         F2 = F2[keep]
+        ecount = np.bincount(einv.reshape(-1, 3)[keep].ravel(), minlength=ne)
+        ecount = ecount[ecount > 0]
     used = np.zeros(len(V2), dtype=bool)
     used[F2.reshape(-1)] = True
     newid = np.cumsum(used) - 1
     V2, F2, vmap = V2[used], newid[F2], vmap[used]
 
-    _, ec = _unique_edges(F2)
-    if np.all(ec == 2) and _signed_volume(V2, F2) < 0:  # closed: make it outward
+    if np.all(ecount == 2) and _signed_volume(V2, F2) < 0:  # closed: make it outward
         F2 = F2[:, [0, 2, 1]]
         flipped = len(F2) - flipped
 
