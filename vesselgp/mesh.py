@@ -44,16 +44,23 @@ def _face_vectors(V, F):
     return np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
 
 
+def _edge_keys(F):
+    """One int64 key per face corner edge (m, 3), ``min * base + max``, and the base."""
+    base = int(F.max()) + 1 if len(F) else 1
+    a, b = F, F[:, [1, 2, 0]]
+    return np.minimum(a, b) * base + np.maximum(a, b), base
+
+
 def _unique_edges(F):
-    """Undirected edges (e, 2) sorted per row, and how many faces use each."""
-    E = np.sort(F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    return unique_rows(E, return_counts=True)
+    """Undirected edges (e, 2) sorted per row (lexicographic order), and how many faces use each."""
+    key, base = _edge_keys(F)
+    u, count = np.unique(key.ravel(), return_counts=True)
+    return np.stack([u // base, u % base], axis=1), count
 
 
 def _face_edges(F):
     """Undirected edge id of each face corner edge (3 m,) (face-major) and faces per edge (e,)."""
-    a, b = F, F[:, [1, 2, 0]]
-    key = np.minimum(a, b) * (int(F.max()) + 1 if len(F) else 1) + np.maximum(a, b)  # one int64 per edge
+    key, _ = _edge_keys(F)
     _, inv, count = np.unique(key.ravel(), return_inverse=True, return_counts=True)
     return inv, count
 
@@ -83,8 +90,13 @@ def _coherent(F, einv, ecount):
     """
     if np.any(ecount > 2):
         return False
+    return _incoherent_edges(F, einv, ecount) == 0
+
+
+def _incoherent_edges(F, einv, ecount):
+    """Number of edges whose two faces traverse them in the same direction."""
     up = np.bincount(einv, weights=(F < F[:, [1, 2, 0]]).ravel(), minlength=len(ecount))
-    return bool(np.all(up[ecount == 2] == 1))
+    return int(np.count_nonzero((ecount == 2) & (up != 1)))
 
 
 def _parity(F):
@@ -713,22 +725,21 @@ def _check_surface(V, F):
             f"mesh has {rep} faces with a repeated vertex index (zero area); "
             "run vesselgp.clean_mesh to remove them"
         )
-    H = F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    E, ec = unique_rows(np.sort(H, axis=1), return_counts=True)
+    einv, ec = _face_edges(F)
     nm = int(np.count_nonzero(ec > 2))
     if nm:
         raise InvalidMeshError(
             f"mesh has {nm} non-manifold edges (shared by more than two faces); "
             "run vesselgp.clean_mesh to repair them"
         )
-    _, hc = unique_rows(H, return_counts=True)
-    bad = int(np.count_nonzero(hc > 1))
+    bad = _incoherent_edges(F, einv, ec)
     if bad:
         raise InvalidMeshError(
             f"mesh faces are not consistently oriented ({bad} edges are used twice in the same "
             "direction); run vesselgp.clean_mesh to orient them"
         )
-    B = E[ec == 1]
+    on_boundary = ec[einv] == 1
+    B = np.sort(np.stack([F.ravel()[on_boundary], F[:, [1, 2, 0]].ravel()[on_boundary]], axis=1), axis=1)
     if len(B):
         # an open seam: boundary edges lying on top of other boundary edges (a
         # split bow-tie vertex alone, as clean_mesh leaves it, is not one)
