@@ -1,5 +1,4 @@
 """Generalized-cylinder fit (paper Eq. 1-5) against analytic axes and radii, and on real meshes."""
-from pathlib import Path
 
 import igl
 import numpy as np
@@ -9,8 +8,8 @@ from scipy.spatial import cKDTree
 import vesselgp
 from vesselgp import InvalidMeshError, NotTubularError, fit_generalized_cylinder
 from vesselgp.synthetic import named_curve, synthetic_vessel
+from _data import REAL
 
-REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 R0 = 1.5
 
 

@@ -14,8 +14,8 @@ import pytest
 import vesselgp.io as vio
 from vesselgp.errors import InvalidMeshError, MeshReadError, MeshWriteError
 from vesselgp.io import read_mesh, write_mesh
+from _data import REAL
 
-REAL = Path("/work/shared/data/real")
 
 CUBE_V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
                    [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], dtype=float)

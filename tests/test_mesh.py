@@ -1,7 +1,6 @@
 """Tests of vesselgp.mesh: cleanup counts, units, vessel ends on known shapes and real meshes."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,8 +17,8 @@ from vesselgp.mesh import (
     select_ends,
     vessel_ends,
 )
+from _data import REAL
 
-REAL = Path("/work/shared/data/real")
 
 
 # --------------------------------------------------------------------------- #

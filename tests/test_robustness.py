@@ -42,8 +42,8 @@ from vesselgp import (
     write_mesh,
 )
 from vesselgp.synthetic import deform_synthetic, named_curve, paper_case, synthetic_vessel
+from _data import REAL
 
-REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 R0 = 1.5
 
 

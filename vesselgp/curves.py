@@ -121,7 +121,8 @@ def _double_reflection_maps(P, T):
     R1 = eye - (2.0 / c1)[:, None, None] * v1[:, :, None] * v1[:, None, :]
     v2 = T[1:] - np.einsum("nij,nj->ni", R1, T[:-1])
     c2 = np.einsum("ij,ij->i", v2, v2)
-    f2 = np.where(c2 > tol.ZERO_VECTOR, 2.0 / np.where(c2 > tol.ZERO_VECTOR, c2, 1.0), 0.0)
+    # no second reflection where the reflected tangent already is the next one
+    f2 = np.divide(2.0, c2, out=np.zeros_like(c2), where=c2 > tol.ZERO_VECTOR)
     R2 = eye - f2[:, None, None] * v2[:, :, None] * v2[:, None, :]
     C = R2 @ R1
     d = 1
