@@ -386,18 +386,23 @@ def _node_diagonal(j, c0, phi, K):
     return d
 
 
-def _solve_banded(ab, rhs):
-    """Banded Cholesky solve (lower form); failure means the surface does not surround an axis."""
-    try:
-        x = solveh_banded(ab, rhs, lower=True)
-    except (np.linalg.LinAlgError, ValueError):
-        x = None
+def _checked_solution(x):
+    """``x`` when finite; None or a non-finite solve means the surface does not surround an axis."""
     if x is None or not np.all(np.isfinite(x)):
         raise NotTubularError(
             "mesh is not tubular: the generalized-cylinder fit is singular (the surface does not "
             "surround an axis: flat, collapsed or torn); check the mesh, e.g. with vesselgp.clean_mesh"
         )
     return x
+
+
+def _solve_banded(ab, rhs):
+    """Banded Cholesky solve (lower form); failure means the surface does not surround an axis."""
+    try:
+        x = solveh_banded(ab, rhs, lower=True)
+    except (np.linalg.LinAlgError, ValueError):
+        x = None
+    return _checked_solution(x)
 
 
 def _radius_fit(s, rho, w, K, mu):
@@ -420,12 +425,7 @@ def _solve(N, rhs):
             x = spla.spsolve(N.tocsc(), rhs)
         except (spla.MatrixRankWarning, RuntimeError):
             x = None
-    if x is None or not np.all(np.isfinite(x)):
-        raise NotTubularError(
-            "mesh is not tubular: the generalized-cylinder fit is singular (the surface does not "
-            "surround an axis: flat, collapsed or torn); check the mesh, e.g. with vesselgp.clean_mesh"
-        )
-    return x
+    return _checked_solution(x)
 
 
 def _local_coords(axis, P, s):
