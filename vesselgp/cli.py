@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from . import tolerances as tol
+from .deform import METHODS
 from .errors import MismatchError, VesselError
 
 log = logging.getLogger("vesselgp.cli")
@@ -448,7 +449,7 @@ def build_parser():
                    help="half-width of the energy curve about the optimum, degrees (default: %(default)s)")
     p.add_argument("--large", type=float, default=tol.DEMO_LARGE_TORSION_DEG,
                    help="rotation from the optimum of the large-torsion mesh, degrees (default: %(default)s)")
-    p.add_argument("--method", default="rod_arap", choices=("rod_arap", "rod", "arap", "laplacian"),
+    p.add_argument("--method", default="rod_arap", choices=METHODS,
                    help="deformation method (default: %(default)s)")
     p.add_argument("--no-png", action="store_true", help="do not render PNGs")
     _common(p, "vesselgp-join")

@@ -154,8 +154,9 @@ class TorsionMeter:
     smoothing : float
         Smoothing length of the alpha spline in axis-node spacings (half a
         mean radius each); twist that varies faster than this is damped.
-    correct_bias : bool
-        Apply the circle-fit correction after Eq. 6 (removes the bend bias).
+    correct_bias : int
+        Number of circle-fit corrections after Eq. 6 (they remove Eq. 1's bend
+        bias); 0 keeps the plain Eq. 6 axis.
 
     Examples
     --------
