@@ -12,14 +12,13 @@ frame, units, seed). Deterministic for a given seed; a few seconds in total.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import time
 from pathlib import Path
 
-import igl
 import numpy as np
 
+import vesselgp.io as vio
 from vesselgp.synthetic import paper_case
 
 log = logging.getLogger("make_paper_cases")
@@ -35,34 +34,13 @@ def _truth_arrays(prefix, t):
 
 
 def write_case(case, folder, resolution):
-    """Write one :class:`vesselgp.synthetic.JoinCase` into ``folder``."""
+    """Write one :class:`vesselgp.synthetic.JoinCase` into ``folder``: the case files of
+    :func:`vesselgp.io.write_case` (``vessel.ply``, ``other.ply``, ``case.json``) and ``truth.npz``."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    enc = igl.FileEncoding.Binary
-    igl.write_triangle_mesh(str(folder / "vessel.ply"), case.V, case.F, enc)
-    igl.write_triangle_mesh(str(folder / "other.ply"), case.other_V, case.other_F, enc)
+    vio.write_case(folder, case, resolution)
     np.savez_compressed(folder / "truth.npz", **_truth_arrays("vessel", case.truth),
                         **_truth_arrays("other", case.other_truth))
-    meta = {
-        "name": case.name,
-        "units": case.units,
-        "seed": case.seed,
-        "resolution": resolution,
-        "pre_rotation": case.pre_rotation,
-        "n_vertices": int(len(case.V)),
-        "n_faces": int(len(case.F)),
-        "other_n_vertices": int(len(case.other_V)),
-        "fixed": case.fixed.tolist(),
-        "moving": case.moving.tolist(),
-        "moving_at": case.moving_at,
-        "other_end": case.other_end.tolist(),
-        "target_origin": case.target_origin.tolist(),
-        "target_tangent": case.target_tangent.tolist(),
-        "target_normal": case.target_normal.tolist(),
-        "vessel_length": case.truth.length,
-        "vessel_curve": case.truth.name,
-    }
-    (folder / "case.json").write_text(json.dumps(meta) + "\n")
 
 
 def main(argv=None):

@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import vesselgp.io as vio
+import vesselgp.io.meshfile as meshfile_mod
+import vesselgp.io.vtp as vtp_mod
 from vesselgp.errors import InvalidMeshError, MeshReadError, MeshWriteError
 from vesselgp.io import read_mesh, write_mesh
 from _data import REAL
@@ -332,7 +333,7 @@ def test_vtp_point_data_roundtrip(tmp_path):
     C = rng.integers(0, 256, size=(len(V), 4)).astype(np.uint8)
     p = tmp_path / "pd.vtp"
     write_mesh(p, V, F, vertex_colors=C, vertex_scalars=s)
-    V2, F2, pdata = vio._read_vtp(p)
+    V2, F2, pdata = vtp_mod.read_vtp(p)
     assert np.array_equal(V2, V) and np.array_equal(F2, F)
     assert np.array_equal(pdata["torsion"], s["torsion"]) and np.array_equal(pdata["alpha"], s["alpha"])
     assert np.array_equal(pdata["Colors"], C)
@@ -391,13 +392,13 @@ def test_atomic_write_keeps_old_file(tmp_path, ext, monkeypatch):
     write_mesh(p, CUBE_V, CUBE_F)
     before = p.read_bytes()
     writer = {".ply": "_write_ply", ".stl": "_write_stl", ".obj": "_write_obj",
-              ".off": "_write_off", ".vtp": "_write_vtp"}[ext]
+              ".off": "_write_off", ".vtp": "write_vtp"}[ext]
 
     def broken(fh, *args):
         fh.write(b"half a mesh")
         raise OSError("disk full")
 
-    monkeypatch.setattr(vio, writer, broken)
+    monkeypatch.setattr(meshfile_mod, writer, broken)
     with pytest.raises(MeshWriteError, match="disk full.*unchanged"):
         write_mesh(p, CUBE_V * 2, CUBE_F)
     assert p.read_bytes() == before
@@ -431,3 +432,22 @@ def test_write_errors_leave_nothing(tmp_path):
 def test_struct_header_of_binary_stl_is_count(tmp_path):
     write_mesh(tmp_path / "c.stl", CUBE_V, CUBE_F)
     assert struct.unpack("<I", (tmp_path / "c.stl").read_bytes()[80:84])[0] == 12
+
+
+def test_atomic_write_leaves_the_umask_alone(tmp_path, monkeypatch):
+    """Writes never change the process umask (other threads would see it); new files get 0o666 & ~umask."""
+    calls = []
+    real = os.umask
+    monkeypatch.setattr(os, "umask", lambda m: calls.append(m) or real(m))
+    write_mesh(tmp_path / "a.ply", CUBE_V, CUBE_F)
+    assert calls == []
+    monkeypatch.undo()
+    mask = os.umask(0o022)
+    try:
+        write_mesh(tmp_path / "b.ply", CUBE_V, CUBE_F)
+        assert os.stat(tmp_path / "b.ply").st_mode & 0o777 == 0o644
+        os.chmod(tmp_path / "b.ply", 0o600)
+        write_mesh(tmp_path / "b.ply", CUBE_V * 2, CUBE_F)  # a replaced file keeps its mode
+        assert os.stat(tmp_path / "b.ply").st_mode & 0o777 == 0o600
+    finally:
+        os.umask(mask)

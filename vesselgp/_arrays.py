@@ -48,3 +48,15 @@ def unique_rows(A, return_index=False, return_inverse=False, return_counts=False
         out.append(res[1])
     out.extend(res[2:])
     return tuple(out) if len(out) > 1 else rows
+
+
+def thinned(n, most):
+    """Evenly thinned subset (a slice) of ``range(n)`` with at most about ``most`` entries.
+
+    Examples
+    --------
+    >>> thinned(10, 4)
+    slice(0, 10, 3)
+    """
+    step = max(1, int(np.ceil(n / most)))
+    return slice(0, n, step)

@@ -16,16 +16,18 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import os
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
+from . import pipeline
 from . import tolerances as tol
-from .deform import METHODS
-from .errors import MismatchError, VesselError
+from .deform import METHODS, Frame
+from .errors import VesselError
+from .io import to_json, write_json
+from .pipeline import OutputFolder
 
 log = logging.getLogger("vesselgp.cli")
 
@@ -65,49 +67,28 @@ run 'vesselgp <command> --help' for the options of a command.""",
 # ----------------------------------------------------------------------------- helpers
 
 
-class _Out:
-    """An output folder that refuses to be non-empty (unless overwrite) and never writes over inputs."""
-
-    def __init__(self, folder, inputs=(), overwrite=False):
-        self.dir = Path(folder)
-        self.inputs = [Path(p) for p in inputs if p is not None]
-        if self.dir.exists() and not self.dir.is_dir():
-            raise VesselError(f"output {self.dir} exists and is not a folder; choose another -o")
-        if self.dir.is_dir() and any(self.dir.iterdir()) and not overwrite:
-            raise VesselError(f"output folder {self.dir} exists and is not empty; pass --overwrite or choose another -o")
-        for p in self.inputs:
-            if p.exists() and p.resolve() == self.dir.resolve():
-                raise VesselError(f"output folder {self.dir} is an input; choose another -o")
-        self.dir.mkdir(parents=True, exist_ok=True)
-        self.files = []
-
-    def __call__(self, name):
-        p = self.dir / name
-        for q in self.inputs:
-            if p.resolve() == q.resolve() or (p.exists() and q.exists() and os.path.samefile(p, q)):
-                raise VesselError(f"refusing to overwrite input file {q}; choose another -o")
-        self.files.append(str(p))
-        return p
-
-
 def _ids(text, name):
-    """Vertex ids from '0,3,7-12' or '@file' (JSON list or whitespace/comma separated)."""
+    """Vertex ids from '0,3,7-12' or '@file'.
+
+    ``@file.json`` holds a JSON list of ids; any other ``@file`` holds ids and
+    ranges separated by commas or whitespace, as on the command line.
+    """
     text = str(text).strip()
     if text.startswith("@"):
         path = Path(text[1:])
+        if path.suffix.lower() == ".json":
+            d = read_json_list(path, f"--{name}")
+            return np.asarray(d, np.int64).reshape(-1)
         try:
-            raw = path.read_text()
+            text = path.read_text()
         except OSError as exc:
             raise VesselError(f"--{name}: cannot read {path} ({exc.strerror})") from None
-        try:
-            return np.asarray(json.loads(raw), np.int64).reshape(-1)
-        except (ValueError, TypeError):
-            text = raw.replace("\n", ",").replace(" ", ",")
+        text = ",".join(text.split())
     out = []
     for part in filter(None, (p.strip() for p in text.split(","))):
         try:
             if "-" in part[1:]:
-                a, b = part.split("-", 1) if not part.startswith("-") else (part, "")
+                a, b = part.split("-", 1)
                 out.extend(range(int(a), int(b) + 1))
             else:
                 out.append(int(part))
@@ -118,10 +99,17 @@ def _ids(text, name):
     return np.asarray(out, np.int64)
 
 
-def _read(path):
-    from .io import read_mesh
-
-    return read_mesh(path)
+def read_json_list(path, what):
+    """A JSON list of integers from ``path``, or a VesselError saying what is wrong."""
+    try:
+        d = json.loads(Path(path).read_text())
+    except OSError as exc:
+        raise VesselError(f"{what}: cannot read {path} ({exc.strerror})") from None
+    except ValueError as exc:
+        raise VesselError(f"{what}: {path} is not valid JSON ({exc}); write a list like [0, 1, 2]") from None
+    if not isinstance(d, list) or not all(isinstance(v, int) and not isinstance(v, bool) for v in d):
+        raise VesselError(f"{what}: {path} must hold a JSON list of integer vertex ids")
+    return d
 
 
 def _progress(args):
@@ -129,8 +117,6 @@ def _progress(args):
 
 
 def _emit(args, summary, text):
-    from .demo import to_json
-
     if args.json:
         print(json.dumps(to_json(summary), indent=2, allow_nan=False))
     elif not args.quiet:
@@ -145,224 +131,87 @@ def _files_text(out):
 
 
 def cmd_fit(args):
-    from .demo import gc_to_dict, write_csv, write_json
-    from .fit import fit_generalized_cylinder
-    from .io import write_mesh
-    from .viz import render_mesh, torsion_colors, write_polyline
-
-    V, F = _read(args.mesh)
-    out = _Out(args.output, [args.mesh], args.overwrite)
-    t0 = time.perf_counter()
-    gc = fit_generalized_cylinder(V, F, ends=args.ends, n_nodes=args.nodes)
-    dt = time.perf_counter() - t0
-    d = gc_to_dict(gc, units=args.units)
-    d["bbox_diagonal"] = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
-    d["input"] = str(args.mesh)
-    d["time_s"] = dt
-    write_json(out("axis.json"), d)
-    arc = gc.s * gc.length
-    fr = gc.frames
-    write_csv(out("axis.csv"), {
-        "s": gc.s, "arclength": arc, "x": gc.centers[:, 0], "y": gc.centers[:, 1], "z": gc.centers[:, 2],
-        "radius": gc.radii, "Tx": fr[:, 0, 0], "Ty": fr[:, 0, 1], "Tz": fr[:, 0, 2],
-        "Ux": fr[:, 1, 0], "Uy": fr[:, 1, 1], "Uz": fr[:, 1, 2], "Vx": fr[:, 2, 0], "Vy": fr[:, 2, 1],
-        "Vz": fr[:, 2, 2]})
-    pdata = {"s": gc.s, "radius": gc.radii, "T": fr[:, 0], "U": fr[:, 1], "V": fr[:, 2]}
-    for ext in (("vtp", "ply") if args.axis_format == "both" else (args.axis_format,)):
-        write_polyline(out(f"axis.{ext}"), gc.centers, pdata)
-    if args.shade != "none":
-        if args.shade == "theta":
-            val, lo, hi, cmap, label = np.degrees(gc.vertex_theta), -180.0, 180.0, "twilight", "angle \u03b8 about the axis (deg)"
-        else:
-            val = np.hypot(gc.vertex_local[:, 1], gc.vertex_local[:, 2])
-            lo, hi, cmap, label = float(val.min()), float(val.max()), "viridis", f"distance to the axis ({args.units})"
-        name = f"mesh_{args.shade}"
-        write_mesh(out(name + ".ply"), V, F, vertex_colors=torsion_colors(val, lo, hi, cmap),
-                   vertex_scalars={args.shade: val, "s": gc.vertex_s})
-        if not args.no_png:
-            render_mesh(out(name + ".png"), V, F, val, vmin=lo, vmax=hi, cmap=cmap, cbar_label=label,
-                        title=f"{Path(args.mesh).name}: generalized cylinder, length {gc.length:.4g}, "
-                              f"mean radius {gc.mean_radius:.3g}")
-    summary = {"command": "fit", "length": gc.length, "mean_radius": gc.mean_radius, "n_nodes": len(gc.s),
-               "iterations": gc.iterations, "time_s": dt, "files": out.files}
+    out = OutputFolder(args.output, [args.mesh], args.overwrite)
+    gc, d = pipeline.run_fit(args.mesh, out, ends=args.ends, n_nodes=args.nodes, axis_format=args.axis_format,
+                             shade=args.shade, units=args.units, render=not args.no_png)
+    summary = {"command": "fit", **{k: d[k] for k in ("length", "mean_radius", "n_nodes", "iterations",
+                                                      "converged", "time_s")}, "files": out.files}
     _emit(args, summary, f"fitted axis: length {gc.length:.4g}, mean radius {gc.mean_radius:.4g}, "
-                         f"{len(gc.s)} nodes, {gc.iterations} iterations, {dt:.2f} s\n{_files_text(out)}")
+                         f"{len(gc.s)} nodes, {gc.iterations} iterations, {d['time_s']:.2f} s\n{_files_text(out)}")
     return 0
 
 
 def cmd_torsion(args):
-    from .demo import profile_to_dict, write_csv, write_json
-    from .fit import fit_generalized_cylinder
-    from .io import write_mesh
-    from .torsion import TorsionMeter
-    from .viz import plot_torsion_profile, render_mesh, torsion_colors
-
-    V0, F0 = _read(args.rest)
-    V1, F1 = _read(args.deformed)
-    if V0.shape != V1.shape or F0.shape != F1.shape or not np.array_equal(F0, F1):
-        raise MismatchError(f"rest ({len(V0)} vertices, {len(F0)} faces) and deformed ({len(V1)} vertices, "
-                            f"{len(F1)} faces) meshes must share vertices and faces")
-    out = _Out(args.output, [args.rest, args.deformed], args.overwrite)
-    t0 = time.perf_counter()
-    meter = TorsionMeter(V0, F0, fit_generalized_cylinder(V0, F0), smoothing=args.smoothing)
-    prof = meter(V1)
-    dt = time.perf_counter() - t0
-    d = {"command": "torsion", "rest": str(args.rest), "deformed": str(args.deformed), "time_s": dt,
-         **profile_to_dict(prof)}
-    write_json(out("profile.json"), d)
-    write_csv(out("profile.csv"), {"s": prof.s, "alpha_deg": np.degrees(prof.alpha),
-                                   "dalpha_deg": np.degrees(prof.dalpha), "curvature": prof.curvature,
-                                   "frenet_torsion": np.where(prof.frenet_defined, prof.frenet_torsion, np.nan)})
-    al = np.degrees(prof.vertex_alpha)
-    write_mesh(out("deformed_twist.ply"), V1, F1, vertex_colors=torsion_colors(al),
-               vertex_scalars={"alpha_deg": al})
-    if not args.no_png:
-        render_mesh(out("deformed_twist.png"), V1, F1, al,
-                    title=f"twist {np.degrees(prof.total_twist):.1f}\u00b0, E = {prof.energy:.3g} (Eq. 8)")
-        plot_torsion_profile(out("profile.png"), prof)
-    summary = {"command": "torsion", "energy": prof.energy, "total_twist_deg": np.degrees(prof.total_twist),
-               "twist_per_length_deg": np.degrees(prof.twist_per_length), "length": prof.length,
-               "time_s": dt, "files": out.files}
+    out = OutputFolder(args.output, [args.rest, args.deformed], args.overwrite)
+    prof, d = pipeline.run_torsion(args.rest, args.deformed, out, smoothing=args.smoothing, render=not args.no_png)
+    summary = {"command": "torsion", **{k: d[k] for k in ("energy", "total_twist_deg", "twist_per_length_deg",
+                                                          "length", "time_s")}, "files": out.files}
     _emit(args, summary, f"torsion energy {prof.energy:.4g} (Eq. 8), total twist "
-                         f"{np.degrees(prof.total_twist):.2f} deg, {dt:.2f} s\n{_files_text(out)}")
+                         f"{d['total_twist_deg']:.2f} deg, {d['time_s']:.2f} s\n{_files_text(out)}")
     return 0
 
 
 def cmd_join(args):
-    from .demo import case_from_dict, run_join, summary_table, write_json
-    from .join import Frame
-
-    V, F = _read(args.vessel)
-    inputs = [args.vessel, args.case, args.other]
-    other_end = None
-    if args.case is not None:
-        try:
-            d = json.loads(Path(args.case).read_text())
-        except OSError as exc:
-            raise VesselError(f"cannot read case file {args.case} ({exc.strerror})") from None
-        except ValueError as exc:
-            raise VesselError(f"case file {args.case} is not valid JSON ({exc})") from None
-        if not isinstance(d, dict):
-            raise VesselError(f"case file {args.case} must hold a JSON object")
-        fixed, moving, target, other_end = case_from_dict(d, len(V))
-        if args.other is None and (Path(args.case).parent / "other.ply").exists():
-            args.other = str(Path(args.case).parent / "other.ply")
-            inputs.append(args.other)
-    else:
+    if args.case is None:
         need = {"--fixed": args.fixed, "--moving": args.moving, "--target-origin": args.target_origin,
                 "--target-tangent": args.target_tangent, "--target-normal": args.target_normal}
         missing = [k for k, v in need.items() if v is None]
         if missing:
             raise VesselError(f"give --case or all of {', '.join(need)} (missing {', '.join(missing)})")
-        fixed, moving = _ids(args.fixed, "fixed"), _ids(args.moving, "moving")
-        target = Frame(args.target_origin, args.target_tangent, args.target_normal)
-    if args.other_end is not None:
-        other_end = _ids(args.other_end, "other-end")
-    other = None
-    if args.other is not None:
-        Vo, Fo = _read(args.other)
-        other = (Vo, Fo, other_end)
-    out = _Out(args.output, inputs, args.overwrite)
-    for name in ("optimum.ply", "large_torsion.ply", "energy_curve.csv", "result.json", "joined_optimum.ply",
-                 "optimum.png", "large_torsion.png", "energy_curve.png", "profile_optimum.png",
-                 "profile_large_torsion.png"):
-        out(name)  # refuses names that are inputs
-    out.files.clear()
-    r = run_join(out.dir, V, F, fixed, moving, target, other=other, name=Path(args.vessel).stem,
-                 n_curve=args.n_curve, curve_range_deg=args.range, large_deg=args.large, method=args.method,
-                 progress=_progress(args), render=not args.no_png)
+    inp = pipeline.join_inputs(
+        args.vessel, case=args.case,
+        fixed=None if args.fixed is None else _ids(args.fixed, "fixed"),
+        moving=None if args.moving is None else _ids(args.moving, "moving"),
+        target=None if args.case is not None else Frame(args.target_origin, args.target_tangent,
+                                                          args.target_normal),
+        other=args.other, other_end=None if args.other_end is None else _ids(args.other_end, "other-end"))
+    out = OutputFolder(args.output, inp["inputs"], args.overwrite)
+    out.check(pipeline.JOIN_FILES)
+    r = pipeline.run_join(out.dir, inp["V"], inp["F"], inp["fixed"], inp["moving"], inp["target"],
+                          other=inp["other"], name=Path(args.vessel).stem, n_curve=args.n_curve,
+                          curve_range_deg=args.range, large_deg=args.large, method=args.method,
+                          progress=_progress(args), render=not args.no_png)
     r = {"command": "join", "vessel": str(args.vessel), **r}
     write_json(out("result.json"), r)
     out.files.extend(str(out.dir / f) for f in r["files"].values())
     summary = {k: r[k] for k in ("optimum_angle_deg", "energy", "total_twist_deg", "n_evals", "status",
-                                 "setup_time_s", "time_s")}
+                                 "grid_scan", "setup_time_s", "time_s")}
     summary.update(command="join", large_torsion=r["large_torsion"], files=out.files)
-    _emit(args, summary, summary_table([r]) + "\n" + _files_text(out))
+    _emit(args, summary, pipeline.summary_table([r]) + "\n" + _files_text(out))
     return 0
 
 
 def cmd_clean(args):
-    from dataclasses import asdict
-
-    from .demo import write_json
-    from .io import write_mesh
-
-    try:
-        from .mesh import clean_mesh
-    except ImportError as exc:
-        raise VesselError(f"mesh cleaning is not available in this installation ({exc})") from None
-    V, F = _read(args.mesh)
-    out = _Out(args.output, [args.mesh], args.overwrite)
-    V2, F2, rep = clean_mesh(V, F)
-    name = f"{Path(args.mesh).stem}_clean.{args.format}"
-    write_mesh(out(name), V2, F2)
-    d = {k: v for k, v in asdict(rep).items() if k != "vertex_map"}
-    d["summary"] = rep.summary()
-    d["input"] = str(args.mesh)
-    try:
-        from .mesh import mesh_scale
-
-        sc = mesh_scale(V2, F2)
-        d["scale"] = {"median_edge": sc.median_edge, "bbox_diagonal": sc.bbox_diagonal,
-                      "units_guess": sc.units_guess, "warning": sc.warning}
-    except (ImportError, AttributeError, VesselError) as exc:  # optional information
-        log.debug("mesh_scale unavailable: %s", exc)
-    write_json(out("clean_report.json"), d)
+    out = OutputFolder(args.output, [args.mesh], args.overwrite)
+    rep, d = pipeline.run_clean(args.mesh, out, fmt=args.format)
     _emit(args, {"command": "clean", **d, "files": out.files}, rep.summary() + "\n" + _files_text(out))
     return 0
 
 
 def cmd_generate(args):
-    from .demo import case_to_dict, to_json, write_json
-    from .io import write_mesh
-    from .synthetic import deform_synthetic, paper_case, synthetic_vessel
-
-    out = _Out(args.output, [], args.overwrite)
+    out = OutputFolder(args.output, [], args.overwrite)
     if args.paper_cases:
-        info = []
-        for n in (1, 2):
-            c = paper_case(n, resolution=args.resolution, seed=args.seed, noise=args.noise,
-                           pre_rotation=np.radians(args.pre_rotation))
-            sub = out.dir / f"case{n}"
-            sub.mkdir(exist_ok=True)
-            write_mesh(out(f"case{n}/vessel.ply"), c.V, c.F)
-            write_mesh(out(f"case{n}/other.ply"), c.other_V, c.other_F)
-            write_json(out(f"case{n}/case.json"), case_to_dict(c, args.resolution), indent=None)
-            info.append({"case": n, "name": c.name, "n_vertices": len(c.V), "other_n_vertices": len(c.other_V)})
+        info = pipeline.run_paper_cases(out, resolution=args.resolution, seed=args.seed, noise=args.noise,
+                                        pre_rotation=np.radians(args.pre_rotation))
         text = "\n".join(f"case {i['case']} ({i['name']}): {i['n_vertices']} + {i['other_n_vertices']} vertices"
                          for i in info)
         _emit(args, {"command": "generate", "cases": info, "files": out.files}, text + "\n" + _files_text(out))
         return 0
-    twist = None if args.twist is None else np.radians(args.twist)
-    v = synthetic_vessel(args.curve, radius=args.radius, twist=twist, ends=args.ends, n_around=args.n_around,
-                         remesh=not args.no_remesh, noise=args.noise, seed=args.seed,
-                         ellipticity=args.ellipticity)
-    write_mesh(out(f"vessel.{args.format}"), v.V, v.F)
-    t = v.truth
-    truth = {"name": t.name, "units": t.units, "length": t.length, "s": t.s[::10], "centers": t.centers[::10],
-             "radii": t.radii[::10], "alpha_deg": np.degrees(t.alpha[::10]), "n_vertices": len(v.V),
-             "n_faces": len(v.F), "radius": args.radius, "twist_deg": args.twist, "ends": args.ends}
-    summary = {"command": "generate", "curve": t.name, "n_vertices": len(v.V), "length": t.length}
-    if args.deformed_curve is not None or args.deformed_twist is not None:
-        dtw = None if args.deformed_twist is None else np.radians(args.deformed_twist)
-        Vd = deform_synthetic(v, args.deformed_curve, twist=dtw)
-        write_mesh(out(f"deformed.{args.format}"), Vd, v.F)
-        truth["deformed"] = {"curve": args.deformed_curve, "twist_deg": args.deformed_twist}
-        summary["deformed_twist_deg"] = args.deformed_twist
-    write_json(out("truth.json"), truth)
+    summary = pipeline.run_generate(
+        out, args.curve, radius=args.radius, twist_deg=args.twist, ends=args.ends, n_around=args.n_around,
+        remesh=not args.no_remesh, noise=args.noise, seed=args.seed, ellipticity=args.ellipticity,
+        deformed_curve=args.deformed_curve, deformed_twist_deg=args.deformed_twist, fmt=args.format)
     summary["files"] = out.files
-    _emit(args, to_json(summary), f"{t.name} vessel: {len(v.V)} vertices, length {t.length:.4g} {t.units}\n"
-                                  + _files_text(out))
+    _emit(args, summary, f"{summary['curve']} vessel: {summary['n_vertices']} vertices, length "
+                         f"{summary['length']:.4g} {summary['units']}\n" + _files_text(out))
     return 0
 
 
 def cmd_demo(args):
-    from .demo import run_demo, summary_table
-
-    out = _Out(args.output, [], args.overwrite)
+    out = OutputFolder(args.output, [], args.overwrite)
     t0 = time.perf_counter()
-    rep = run_demo(out.dir, resolution=args.resolution, n_curve=args.n_curve, progress=_progress(args),
-                   render=not args.no_png, pre_rotation=np.radians(args.pre_rotation))
+    rep = pipeline.run_demo(out.dir, resolution=args.resolution, n_curve=args.n_curve, progress=_progress(args),
+                            render=not args.no_png, pre_rotation=np.radians(args.pre_rotation))
     dt = time.perf_counter() - t0
     files = [str(out.dir / "report.json")] + [str(out.dir / f) for c in rep["cases"] for f in c["files"].values()]
     summary = {"command": "demo", "output": str(out.dir), "total_time_s": dt,
@@ -370,7 +219,7 @@ def cmd_demo(args):
                                             "setup_time_s", "time_s")} for c in rep["cases"]],
                "files": files}
     _emit(args, summary, "vesselgp demo: the paper's two joining cases (Section 3) on generated vessels\n"
-                         + summary_table(rep["cases"])
+                         + pipeline.summary_table(rep["cases"])
                          + f"\ntotal {dt:.1f} s; figures, meshes and report.json in {out.dir}/")
     return 0
 
@@ -432,8 +281,10 @@ def build_parser():
                                    "energy curve (Fig. 4).", formatter_class=fmt, epilog=EPILOG["join"])
     p.add_argument("vessel", help="mesh of the vessel that is deformed")
     p.add_argument("--case", help="case.json (as written by 'vesselgp generate --paper-cases' or "
-                                  "data_gen/make_paper_cases.py); its folder's other.ply is used if present")
-    p.add_argument("--fixed", help="held vertex ids: '0,5,10-99' or @file")
+                                  "data_gen/make_paper_cases.py); the vessel joined to is the file it names "
+                                  "as other_mesh, unless --other is given")
+    p.add_argument("--fixed", help="held vertex ids: '0,5,10-99', @ids.txt (the same, any separators) "
+                                   "or @ids.json (a JSON list)")
     p.add_argument("--moving", help="vertex ids of the joined end ring: '...' or @file")
     p.add_argument("--target-origin", type=float, nargs=3, metavar=("X", "Y", "Z"),
                    help="where the joined end's centre goes")

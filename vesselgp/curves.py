@@ -20,12 +20,14 @@ from scipy.interpolate import make_interp_spline, make_smoothing_spline
 
 from . import tolerances as tol
 from ._validate import as_points, as_vector
-from .errors import FrameError
+from .errors import FrameError, NotTubularError
+from .rotations import minimal_rotation, perpendicular, unit_rows
 
 __all__ = [
     "rotation_minimizing_frames",
     "curve_tangents",
     "chord_length",
+    "resample_arclength",
     "frenet",
     "FrenetResult",
     "transport_angle",
@@ -52,6 +54,60 @@ def chord_length(P):
     """
     P = as_points(P, "P", min_rows=1)
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
+
+
+def resample_arclength(P, k, *, with_tangents=False, oversample=16):
+    """``k`` points at equal arc length along the cubic interpolating spline of ``P``.
+
+    The spline runs over chord length (consecutive repeated points are
+    dropped); its arc length is measured on a grid ``oversample`` times finer
+    than the output.
+
+    Parameters
+    ----------
+    P : (m, 3) float64
+        Curve points, at least two distinct.
+    k : int
+        Number of output points (the first and last are the curve's ends).
+    with_tangents : bool
+        Also return the unit tangents of the spline and its length.
+
+    Returns
+    -------
+    Q : (k, 3) float64
+    T : (k, 3) float64
+        Unit tangents (only with ``with_tangents``).
+    length : float
+        Arc length of the spline (only with ``with_tangents``).
+
+    Raises
+    ------
+    NotTubularError
+        When all points coincide (the curve has no length).
+
+    Examples
+    --------
+    >>> Q = resample_arclength([[0, 0, 0], [1, 0, 0], [3, 0, 0]], 4)
+    >>> np.round(Q[:, 0], 9).tolist()
+    [0.0, 1.0, 2.0, 3.0]
+    """
+    P = as_points(P, "P", min_rows=1)
+    u = chord_length(P)
+    keep = np.concatenate([[True], np.diff(u) > tol.REPEATED_POINT * u[-1]])
+    P, u = P[keep], u[keep]
+    if len(P) < 2:
+        raise NotTubularError(
+            "mesh is not tubular: its axis collapsed to a point (all vertices coincide); "
+            "check the (deformed) vertex positions"
+        )
+    spl = make_interp_spline(u, P, k=min(3, len(P) - 1))
+    uf = np.linspace(0.0, u[-1], int(oversample) * int(k))
+    arc = chord_length(spl(uf))
+    ud = np.interp(np.linspace(0.0, arc[-1], int(k)), arc, uf)
+    Q = spl(ud)
+    if not with_tangents:
+        return Q
+    return Q, unit_rows(spl.derivative(1)(ud)), float(arc[-1])
 
 
 def _spline(P):
@@ -94,14 +150,6 @@ def curve_tangents(P):
     if np.any(n <= 0):
         raise FrameError("curve tangent vanishes; the curve doubles back on itself")
     return D / n[:, None]
-
-
-def _perpendicular(t):
-    """A unit vector perpendicular to unit vector ``t`` (a fixed, documented choice)."""
-    e = np.zeros(3)
-    e[int(np.argmin(np.abs(t)))] = 1.0
-    u = e - (e @ t) * t
-    return u / np.linalg.norm(u)
 
 
 def _double_reflection_maps(P, T):
@@ -184,7 +232,7 @@ def rotation_minimizing_frames(P, tangents=None, initial_normal=None, method="do
             raise FrameError("a tangent is zero; give non-zero tangents or omit them")
         T = T / n[:, None]
     if initial_normal is None:
-        r = _perpendicular(T[0])
+        r = perpendicular(T[0])
     else:
         r = as_vector(initial_normal, "initial_normal")
         m = float(np.abs(r).max())
@@ -205,7 +253,7 @@ def rotation_minimizing_frames(P, tangents=None, initial_normal=None, method="do
         U[1:] = _double_reflection_maps(P, T) @ r
     elif method == "rotation":
         for i in range(k - 1):
-            U[i + 1] = _rotate_between(T[i], T[i + 1], U[i])
+            U[i + 1] = minimal_rotation(T[i], T[i + 1]).apply(U[i])
     elif method == "projection":
         for i in range(k - 1):
             r = U[i] - (U[i] @ T[i + 1]) * T[i + 1]
@@ -222,17 +270,6 @@ def rotation_minimizing_frames(P, tangents=None, initial_normal=None, method="do
     U /= np.linalg.norm(U, axis=1)[:, None]
     V = np.cross(T, U)
     return T, U, V
-
-
-def _rotate_between(a, b, x):
-    """Rotate ``x`` by the minimal rotation taking unit ``a`` to unit ``b`` (Rodrigues)."""
-    axis = np.cross(a, b)
-    s = np.linalg.norm(axis)
-    c = float(a @ b)
-    if s < tol.STRAIGHT_SIN:
-        return x if c > 0 else -x + 2 * (x @ a) * a  # antiparallel: half turn about a perpendicular
-    axis /= s
-    return x * c + np.cross(axis, x) * s + axis * (axis @ x) * (1 - c)
 
 
 def transport_angle(T, U, W):

@@ -40,15 +40,18 @@ cylinder* first and the mesh second (method ``"rod_arap"``, the default):
 displacement is minimised, paper ref. [7] without rotation updates) are kept
 for comparison; both concentrate an end twist near the end.
 
-Everything that does not depend on the target (the fit, the vertex
-interpolation weights, the ARAP and Laplacian factorisations) is computed
-once per :class:`RodDeformer`; everything that does not depend on the angle
-(axis, RMF, per-vertex frames) once per target; an angle costs one vectorised
-placement plus the ARAP iterations.
+The split follows libigl's ``arap_precomputation`` / ``arap_solve``:
+:class:`RodDeformer` holds everything that does not depend on the target (the
+fit, the free part, the vertex interpolation weights, the ARAP and Laplacian
+factorisations); :meth:`RodDeformer.place` returns a :class:`RodPlacement`
+holding what does not depend on the angle (deformed axis, its RMF, per-vertex
+frames); each angle then costs one vectorised placement plus the ARAP
+iterations. The join target is a :class:`Frame`.
 """
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import igl
 import numpy as np
@@ -58,16 +61,94 @@ from . import tolerances as tol
 from ._validate import as_mesh, as_vector
 from .curves import rotation_minimizing_frames, transport_angle
 from .errors import EndsError, FrameError, MismatchError, OptionError
+from .fit import GeneralizedCylinder, fit_generalized_cylinder
+from .rotations import minimal_rotation, rotate, unit
 
 log = logging.getLogger(__name__)
 
-__all__ = ["RodDeformer", "deform_vessel", "METHODS", "as_vertex_ids"]
+__all__ = ["Frame", "RodDeformer", "RodPlacement", "deform_vessel", "METHODS", "STIFFNESS", "as_vertex_ids"]
 
 #: Deformation methods of :class:`RodDeformer`.
 METHODS = ("rod_arap", "rod", "arap", "laplacian")
+#: Torsional stiffness laws of :class:`RodDeformer`.
+STIFFNESS = ("uniform", "radius4")
 
 
-# ----------------------------------------------------------------------------- helpers
+@dataclass(frozen=True)
+class Frame:
+    """Where the joined end goes: its centre, axis direction and reference normal.
+
+    Validated at construction: ``tangent`` is normalised, ``normal`` is made
+    perpendicular to it and normalised.
+
+    Attributes
+    ----------
+    origin : (3,) float64
+        New centre of the moving end.
+    tangent : (3,) float64
+        Unit direction of the vessel's axis at the end, pointing *out of* the
+        deformed vessel (for a join: minus the other vessel's outward end
+        direction from :func:`vesselgp.vessel_ends`).
+    normal : (3,) float64
+        Unit, perpendicular to ``tangent``: the image of the moving end's rest
+        normal U at angle 0.
+
+    Raises
+    ------
+    FrameError
+        Non-finite entries, zero tangent, or a normal parallel to the tangent.
+
+    Examples
+    --------
+    >>> f = Frame([0, 0, 0], [0, 0, 2], [1, 0, 1])
+    >>> f.tangent.tolist(), f.normal.tolist()
+    ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
+    >>> Frame([0, 0, 0], [0, 0, 1], [0, 0, 3])
+    Traceback (most recent call last):
+    ...
+    vesselgp.errors.FrameError: normal is parallel to tangent; give a normal across the axis
+    """
+
+    origin: np.ndarray
+    tangent: np.ndarray
+    normal: np.ndarray
+
+    def __post_init__(self):
+        o = as_vector(self.origin, "origin")
+        t = unit(self.tangent, "tangent")
+        n = unit(self.normal, "normal")
+        n = n - (n @ t) * t
+        nn = float(np.linalg.norm(n))
+        if nn < tol.FRAME_ORTHONORMAL:
+            raise FrameError("normal is parallel to tangent; give a normal across the axis")
+        n = n / nn
+        for name, v in (("origin", o), ("tangent", t), ("normal", n)):
+            v.setflags(write=False)
+            object.__setattr__(self, name, v)
+
+    @classmethod
+    def facing(cls, end, normal):
+        """Target that joins onto another vessel's end: centre ``end.center``, tangent ``-end.direction``.
+
+        Parameters
+        ----------
+        end : VesselEnd
+            The other vessel's end (``center``, unit outward ``direction``).
+        normal : (3,) float64
+            Where the moving end's rest U goes at angle 0.
+        """
+        return cls(end.center, -np.asarray(end.direction, float), normal)
+
+
+def as_frame(target):
+    """A :class:`Frame` from a Frame or a tuple ``(origin, tangent, normal)`` (validated)."""
+    if isinstance(target, Frame):
+        return target
+    try:
+        o, t, nrm = target
+    except (TypeError, ValueError):
+        raise FrameError("target must be a vesselgp.Frame or a tuple (origin, tangent, normal)") from None
+    return Frame(o, t, nrm)
 
 
 def as_vertex_ids(ids, n, name):
@@ -103,56 +184,15 @@ def as_vertex_ids(ids, n, name):
     return a
 
 
-def _rotate(v, k, ang):
-    """Rotate rows ``v`` about unit axis ``k`` by angles ``ang`` (Rodrigues, vectorised)."""
-    ang = np.asarray(ang, float)
-    c, s = np.cos(ang)[..., None], np.sin(ang)[..., None]
-    return v * c + np.cross(k, v) * s + np.outer(v @ k, k) * (1 - c)
-
-
-def _axis_angle(a, b):
-    """Unit axis and angle of the minimal rotation taking unit ``a`` to unit ``b``."""
-    ax = np.cross(a, b)
-    sn = float(np.linalg.norm(ax))
-    cs = float(a @ b)
-    if sn < tol.STRAIGHT_SIN:
-        if cs > 0:
-            return np.array([1.0, 0.0, 0.0]), 0.0
-        e = np.zeros(3)
-        e[int(np.argmin(np.abs(a)))] = 1.0
-        e -= (e @ a) * a
-        log.warning("target tangent is opposite to the rest end tangent: the bend direction is arbitrary")
-        return e / np.linalg.norm(e), np.pi
-    return ax / sn, float(np.arctan2(sn, cs))
-
-
-def _unit(x, name):
-    v = as_vector(x, name)
-    m = float(np.abs(v).max())
-    if not m > 0:  # relative: any non-zero length is a direction (no unit-dependent threshold)
-        raise FrameError(f"{name} is the zero vector; give a non-zero direction")
-    v = v / m
-    return v / np.linalg.norm(v)
-
-
-def _target(target):
-    """(origin, tangent, normal) from a :class:`vesselgp.Frame` or a 3-tuple (validated)."""
-    from .join import Frame
-
-    if not isinstance(target, Frame):
-        try:
-            o, t, nrm = target
-        except (TypeError, ValueError):
-            raise FrameError("target must be a vesselgp.Frame or a tuple (origin, tangent, normal)") from None
-        target = Frame(o, t, nrm)
-    return target.origin, target.tangent, target.normal
-
-
-# ----------------------------------------------------------------------------- the deformer
+# ----------------------------------------------------------------------------- precompute (target-free)
 
 
 class RodDeformer:
-    """Precomputed handle deformation of one vessel (paper Section 2.3; module notes).
+    """Target-free precomputation of a vessel's handle deformation (paper Section 2.3; module notes).
+
+    Holds the fit, the free part between the held and the moving vertices,
+    the per-vertex interpolation weights and the ARAP / Laplacian
+    factorisations. :meth:`place` gives the per-target :class:`RodPlacement`.
 
     Parameters
     ----------
@@ -174,7 +214,7 @@ class RodDeformer:
     arap_iterations : int, optional
         ARAP iterations: default :data:`~vesselgp.tolerances.DEFORM_REFINE_ITERATIONS`
         for ``"rod_arap"``, :data:`~vesselgp.tolerances.DEFORM_ARAP_ITERATIONS`
-        for ``"arap"``.
+        for ``"arap"`` (read at construction).
     stiffness : {"uniform", "radius4"}
         Torsional stiffness ``J(s)`` used to distribute the twist.
 
@@ -190,24 +230,31 @@ class RodDeformer:
         Rest arc length of the free part (mesh units).
     handles : (p + q,) int64
         ``fixed`` then ``moving``.
+    end_center : (3,) float64
+        Rest centre of the moving end.
+    end_frame : (3, 3) float64
+        Rest frame at the moving end, rows ``T, U, V`` of the fit.
+    end_tangent, end_normal : (3,) float64
+        Outward rest axis direction and rest U at the moving end: the
+        :class:`Frame` ``(end_center, end_tangent, end_normal)`` leaves the end in place.
 
     Raises
     ------
     EndsError
         Empty, overlapping or out-of-range vertex sets, moving vertices not at
         an end of the vessel, or no free part between the fixed and moving sets.
+    OptionError
+        Unknown method or stiffness.
     """
 
     def __init__(self, V, F, fixed, moving, *, gc=None, ends=None, method="rod_arap",
                  arap_iterations=None, stiffness="uniform"):
-        from .fit import GeneralizedCylinder, fit_generalized_cylinder
-
         V, F = as_mesh(V, F)
         n = len(V)
         if method not in METHODS:
             raise OptionError(f"unknown deformation method {method!r}; use one of {', '.join(METHODS)}")
-        if stiffness not in ("uniform", "radius4"):
-            raise OptionError(f"unknown stiffness {stiffness!r}; use 'uniform' or 'radius4'")
+        if stiffness not in STIFFNESS:
+            raise OptionError(f"unknown stiffness {stiffness!r}; use one of {', '.join(STIFFNESS)}")
         fixed = as_vertex_ids(fixed, n, "fixed")
         moving = as_vertex_ids(moving, n, "moving")
         both = np.intersect1d(fixed, moving)
@@ -224,10 +271,23 @@ class RodDeformer:
         self.method = method
         self.stiffness = stiffness
         self.n = n
-        r = gc.mean_radius
-        L = gc.length
-        # -- which end moves, where the free part starts
-        sm = gc.vertex_s[moving]
+        self.handles = np.concatenate([fixed, moving])
+        self._free_part()
+        self._twist_shape()
+        self._vertex_weights()
+        pe, fe = gc.at([self.s_end])
+        self.end_center = pe[0]
+        self.end_frame = fe[0]
+        self.end_tangent = self.sign * fe[0, 0]  # outward
+        self.end_normal = fe[0, 1]
+        self._factorise(arap_iterations)
+        log.debug("RodDeformer: method %s, free part %.3g (%.1f radii), %d free vertices",
+                  method, self.free_length, self.free_length / gc.mean_radius, len(self.free))
+
+    def _free_part(self):
+        """Which end moves (``s_end``), where the free part starts, its dense-axis nodes."""
+        gc, r, L = self.gc, self.gc.mean_radius, self.gc.length
+        sm = gc.vertex_s[self.moving]
         self.s_end = 1.0 if float(np.mean(sm)) >= 0.5 else 0.0
         far = float(np.max(np.abs(sm - self.s_end))) * L
         if far > tol.JOIN_END_REACH * r:
@@ -236,12 +296,14 @@ class RodDeformer:
                 "(its boundary loop) as moving"
             )
         ds = gc.dense_s
-        sf = gc.vertex_s[fixed]
+        sf = gc.vertex_s[self.fixed]
+        # the node at or beyond the fixed vertex nearest the moving end (half a sample of slack)
+        half = 0.5 / (len(ds) - 1)
         if self.s_end == 1.0:
-            jb = int(np.searchsorted(ds, float(sf.max()) - 1e-9, side="left"))
+            jb = int(np.searchsorted(ds, float(sf.max()) - half * tol.DEFORM_NODE_SLACK, side="left"))
             nodes = np.arange(jb, len(ds))
         else:
-            jb = int(np.searchsorted(ds, float(sf.min()) + 1e-9, side="right")) - 1
+            jb = int(np.searchsorted(ds, float(sf.min()) + half * tol.DEFORM_NODE_SLACK, side="right")) - 1
             nodes = np.arange(jb, -1, -1)
         jb = int(np.clip(jb, 0, len(ds) - 1))
         self.s_boundary = float(ds[jb])
@@ -251,39 +313,42 @@ class RodDeformer:
                 f"the fixed vertices reach within {self.free_length / r:.2f} radii of the moving end; "
                 "leave a free part of the vessel between them"
             )
-        self._nodes = nodes  # dense-axis node indices from s_b to s_e
-        self._u = (ds[nodes] - self.s_boundary) / (self.s_end - self.s_boundary)
-        self._sign = 1.0 if self.s_end > self.s_boundary else -1.0
-        # twist shape g(u): alpha = alpha_end * g
-        if stiffness == "uniform":
-            g = self._u.copy()
-        else:
-            inv = 1.0 / np.maximum(gc.radius_at(ds[nodes]), 1e-12 * r) ** 4
-            cum = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(self._u))])
-            g = cum / cum[-1]
-        self._g = g
-        # -- per-vertex interpolation on the dense axis (free vertices only)
-        sv = gc.vertex_s
+        self.nodes = nodes  # dense-axis node indices from s_b to s_e
+        self.u = (ds[nodes] - self.s_boundary) / (self.s_end - self.s_boundary)
+        self.sign = 1.0 if self.s_end > self.s_boundary else -1.0
+
+    def _twist_shape(self):
+        """g(u) with alpha = alpha_end g: minimiser of int J alpha'^2 with alpha(s_b) = 0 (module notes, step 3)."""
+        if self.stiffness == "uniform":
+            self.g = self.u.copy()
+            return
+        r = self.gc.radius_at(self.gc.dense_s[self.nodes])
+        if not np.all(r > 0):
+            raise MismatchError("the fitted radius vanishes on the free part; stiffness='radius4' needs r(s) > 0")
+        inv = 1.0 / r**4
+        cum = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(self.u))])
+        self.g = cum / cum[-1]
+
+    def _vertex_weights(self):
+        """Free vertices, their dense-axis segment ``j`` and weight ``t``, and their rest local coordinates."""
+        gc = self.gc
+        sv, ds = gc.vertex_s, gc.dense_s
         free = (sv > self.s_boundary) if self.s_end == 1.0 else (sv < self.s_boundary)
-        free[fixed] = False
-        free[moving] = False
-        self._free = np.flatnonzero(free)
-        s = sv[self._free]
+        free[self.fixed] = False
+        free[self.moving] = False
+        self.free = np.flatnonzero(free)
+        s = sv[self.free]
         j = np.clip(np.searchsorted(ds, s, side="right") - 1, 0, len(ds) - 2)
-        self._j = j
-        self._t = ((s - ds[j]) / (ds[j + 1] - ds[j]))[:, None]
-        self._local = gc.vertex_local[self._free]
-        # -- rest end frame (GC convention: rows T, U, V with T towards increasing s)
-        pe, fe = gc.at([self.s_end])
-        self.end_center = pe[0]
-        self.end_frame = fe[0]
-        self.end_tangent = self._sign * fe[0, 0]  # outward
-        self.end_normal = fe[0, 1]
-        self.handles = np.concatenate([fixed, moving])
-        self._cache_key = None
-        # -- factorisations, once per problem
+        self.seg = j
+        self.seg_t = ((s - ds[j]) / (ds[j + 1] - ds[j]))[:, None]
+        self.local = gc.vertex_local[self.free]
+
+    def _factorise(self, arap_iterations):
+        """The target-free factorisations: libigl ARAP data or the bi-Laplacian's min_quad_with_fixed."""
+        V, F, method = self.V, self.F, self.method
         self._arap = None
         self._mqwf = None
+        self.arap_iterations = 0
         if method in ("rod_arap", "arap"):
             if arap_iterations is None:
                 arap_iterations = tol.DEFORM_REFINE_ITERATIONS if method == "rod_arap" else tol.DEFORM_ARAP_ITERATIONS
@@ -292,60 +357,117 @@ class RodDeformer:
                 self._arap = igl.ARAPData()
                 self._arap.max_iter = self.arap_iterations
                 igl.arap_precomputation(V, F, 3, self.handles.astype(np.int32), self._arap)
-        else:
-            self.arap_iterations = 0
         if method == "laplacian":
             Lc = igl.cotmatrix(V, F)
             M = igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
             A = (Lc.T @ sp.diags(1.0 / M) @ Lc).tocsc()
             self._mqwf = igl.min_quad_with_fixed_data()
-            igl.min_quad_with_fixed_precompute(A, self.handles, sp.csc_matrix((0, n)), True, self._mqwf)
+            igl.min_quad_with_fixed_precompute(A, self.handles, sp.csc_matrix((0, self.n)), True, self._mqwf)
             self._lap_B = np.ascontiguousarray(-(A @ V))
-        log.debug("RodDeformer: method %s, free part %.3g (%.1f radii), %d free vertices",
-                  method, self.free_length, self.free_length / r, len(self._free))
 
-    # ------------------------------------------------------------------ per target
+    def arap(self, X, bc, iterations=None):
+        """ARAP iterations (libigl ``arap_solve``) from ``X`` with the handles at ``bc``.
 
-    def _prepare(self, origin, tangent, normal):
-        key = (origin.tobytes(), tangent.tobytes(), normal.tobytes())
-        if key == self._cache_key:
-            return
-        gc = self.gc
-        nodes, u = self._nodes, self._u
-        P = gc.dense_points[nodes]
-        Tu = self._sign * gc.dense_frames[nodes, 0]  # forward (towards the moving end)
-        k, phi = _axis_angle(self.end_tangent, tangent)
-        w = 3.0 * u * u - 2.0 * u
-        Tn = _rotate(Tu, k, w * phi) if phi != 0.0 else Tu.copy()
-        Tn[-1] = tangent
-        du = np.diff(u)[:, None] * self.free_length
-        dP = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (Tn[1:] - Tu[1:] + Tn[:-1] - Tu[:-1]) * du, axis=0)])
-        Pi = P + dP
-        c = origin - Pi[-1]
-        h = 3.0 * u * u - 2.0 * u**3
-        dh = 6.0 * u - 6.0 * u * u
-        Pn = Pi + h[:, None] * c
-        Pn[-1] = origin
-        Dn = self.free_length * Tn + dh[:, None] * c
-        Dn /= np.linalg.norm(Dn, axis=1)[:, None]
-        Tf, Uf, _ = rotation_minimizing_frames(Pn, Dn, initial_normal=gc.dense_frames[nodes[0], 1])
-        Tg = self._sign * Tf
-        Vg = np.cross(Tg, Uf)
+        Parameters
+        ----------
+        X : (n, 3) float64
+            Start positions.
+        bc : (p + q, 3) float64
+            Handle positions (:meth:`RodPlacement.handle_positions`).
+        iterations : int, optional
+            Default: the deformer's ``arap_iterations``.
+
+        Returns
+        -------
+        (n, 3) float64
+        """
+        if self._arap is None:
+            raise OptionError(f"method {self.method!r} with {self.arap_iterations} ARAP iterations has no ARAP data")
+        it = self.arap_iterations if iterations is None else int(iterations)
+        self._arap.max_iter = it
+        try:
+            return igl.arap_solve(bc, self._arap, np.array(X, dtype=np.float64, order="C"))
+        finally:
+            self._arap.max_iter = self.arap_iterations
+
+    def laplacian(self, bc):
+        """Bi-Laplacian editing with the handles at ``bc`` (paper ref. [7] without rotation updates)."""
+        return igl.min_quad_with_fixed_solve(self._mqwf, self._lap_B, bc, np.zeros((0, 3)))
+
+    def place(self, target):
+        """The per-target :class:`RodPlacement` (deformed axis and frames) for ``target``.
+
+        Parameters
+        ----------
+        target : Frame or (origin, tangent, normal)
+        """
+        return RodPlacement(self, as_frame(target))
+
+    # one-off conveniences (each builds the placement for the target)
+
+    def deform(self, target, angle=0.0):
+        """Deformed vertices (n, 3) with the moving end on ``target`` turned by ``angle`` (radians)."""
+        return self.place(target).deform(angle)
+
+    def rod(self, target, angle):
+        """The rod placement (steps 1-4 of the module notes) of every vertex, (n, 3)."""
+        return self.place(target).rod(angle)
+
+    def alpha_end(self, target, angle):
+        """Material angle ``alpha(s_e)`` the rod imposes at ``angle`` (see :meth:`RodPlacement.alpha_end`)."""
+        return self.place(target).alpha_end(angle)
+
+    def axis(self, target):
+        """Deformed axis of the rod step: dense ``s``, points (M, 3) and RMF frames (M, 3, 3)."""
+        p = self.place(target)
+        return self.gc.dense_s, p.axis_points, p.axis_frames
+
+    def handle_positions(self, target, angle):
+        """Positions (p + q, 3) of :attr:`handles` at ``angle``."""
+        return self.place(target).handle_positions(angle)
+
+
+# ----------------------------------------------------------------------------- per target
+
+
+class RodPlacement:
+    """The per-target part of a :class:`RodDeformer`: deformed axis, its RMF, per-vertex frames.
+
+    Built by :meth:`RodDeformer.place`; each :meth:`deform` call then costs a
+    vectorised placement and the ARAP iterations.
+
+    Attributes
+    ----------
+    deformer : RodDeformer
+    target : Frame
+    alpha0 : float
+        Angle about the GC tangent at the moving end from the transported RMF
+        normal to the target normal: ``alpha_end(angle) = alpha0 + sign * angle``.
+    axis_points : (M, 3) float64
+        Deformed dense axis (rest outside the free part).
+    axis_frames : (M, 3, 3) float64
+        Its RMF, rows ``T, U, V`` in the fit's orientation.
+    """
+
+    def __init__(self, deformer, target):
+        self.deformer = deformer
+        self.target = target
+        d, gc = deformer, deformer.gc
+        Pn, Tg, Uf = self._bent_axis()
         # alpha_0: angle about T_gc at the end from the transported U to the target normal
-        self._alpha0 = float(transport_angle(Tg[-1:], Uf[-1:], normal[None])[0])
-        # full dense arrays: rest outside the free part
-        M = len(gc.dense_s)
+        self.alpha0 = float(transport_angle(Tg[-1:], Uf[-1:], target.normal[None])[0])
         Pd = gc.dense_points.copy()
         Fd = gc.dense_frames.copy()
-        gd = np.zeros(M)
-        Pd[nodes] = Pn
-        Fd[nodes] = np.stack([Tg, Uf, Vg], axis=1)
-        gd[nodes] = self._g
-        if self.s_end == 1.0:
-            gd[nodes[-1]:] = 1.0
+        gd = np.zeros(len(gc.dense_s))
+        Pd[d.nodes] = Pn
+        Fd[d.nodes] = np.stack([Tg, Uf, np.cross(Tg, Uf)], axis=1)
+        gd[d.nodes] = d.g
+        if d.s_end == 1.0:
+            gd[d.nodes[-1]:] = 1.0
         else:
-            gd[: nodes[-1] + 1] = 1.0
-        j, t = self._j, self._t
+            gd[: d.nodes[-1] + 1] = 1.0
+        self.axis_points, self.axis_frames = Pd, Fd
+        j, t = d.seg, d.seg_t
         self._vm = (1 - t) * Pd[j] + t * Pd[j + 1]
         T = (1 - t) * Fd[j, 0] + t * Fd[j + 1, 0]
         T /= np.linalg.norm(T, axis=1)[:, None]
@@ -353,64 +475,79 @@ class RodDeformer:
         U -= np.sum(U * T, axis=1)[:, None] * T
         U /= np.linalg.norm(U, axis=1)[:, None]
         self._vT, self._vU, self._vV = T, U, np.cross(T, U)
-        self._vg = ((1 - t[:, 0]) * gd[j] + t[:, 0] * gd[j + 1])
-        self._axis_s = gc.dense_s
-        self._axis_points = Pd
-        self._axis_frames = Fd
-        self._target = (origin, tangent, normal)
-        self._cache_key = key
+        self._vg = (1 - t[:, 0]) * gd[j] + t[:, 0] * gd[j + 1]
 
-    def alpha_end(self, target, angle):
+    def _bent_axis(self):
+        """Steps 1-2 of the module notes: the bent free axis, its tangents and transported RMF normals."""
+        d, gc, target = self.deformer, self.deformer.gc, self.target
+        u = d.u
+        P = gc.dense_points[d.nodes]
+        Tu = d.sign * gc.dense_frames[d.nodes, 0]  # forward (towards the moving end)
+        R = minimal_rotation(d.end_tangent, target.tangent)
+        phi = float(R.magnitude())
+        if phi > np.pi - tol.STRAIGHT_SIN:
+            log.warning("target tangent is opposite to the rest end tangent: the bend direction is arbitrary")
+        w = 3.0 * u * u - 2.0 * u
+        Tn = Tu.copy()
+        if phi > 0.0:
+            Tn = rotate(Tu, R.as_rotvec() / phi, w * phi)
+        Tn[-1] = target.tangent
+        du = np.diff(u)[:, None] * d.free_length
+        dP = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (Tn[1:] - Tu[1:] + Tn[:-1] - Tu[:-1]) * du, axis=0)])
+        Pi = P + dP
+        c = target.origin - Pi[-1]
+        h = 3.0 * u * u - 2.0 * u**3
+        dh = 6.0 * u - 6.0 * u * u
+        Pn = Pi + h[:, None] * c
+        Pn[-1] = target.origin
+        Dn = d.free_length * Tn + dh[:, None] * c
+        Dn /= np.linalg.norm(Dn, axis=1)[:, None]
+        Tf, Uf, _ = rotation_minimizing_frames(Pn, Dn, initial_normal=gc.dense_frames[d.nodes[0], 1])
+        return Pn, d.sign * Tf, Uf
+
+    def alpha_end(self, angle):
         """Material angle ``alpha(s_e)`` (radians, about the GC tangent) the rod imposes at ``angle``."""
-        o, t, nrm = _target(target)
-        self._prepare(o, t, nrm)
-        return self._alpha0 + self._sign * float(angle)
+        return self.alpha0 + self.deformer.sign * float(angle)
 
-    def axis(self, target):
-        """Deformed axis of the rod step: dense ``s``, points (M, 3) and RMF frames (M, 3, 3)."""
-        o, t, nrm = _target(target)
-        self._prepare(o, t, nrm)
-        return self._axis_s, self._axis_points, self._axis_frames
+    @property
+    def zero_twist_angle(self):
+        """Angle (radians) at which the rod step imposes no twist: ``-alpha0`` about the target tangent."""
+        return -self.alpha0 * self.deformer.sign
 
-    def _end_map(self, angle):
-        """Rotation Q (3, 3) and the moved end vertices: p = origin + Q (p - m(s_e))."""
-        origin, tangent, normal = self._target
-        Tg = self._sign * tangent
-        Um = _rotate(normal[None], tangent, float(angle))[0]
+    def end_map(self, angle):
+        """Rotation Q (3, 3) and the moved end vertices (q, 3): ``p = origin + Q (p - m(s_e))``."""
+        d, t = self.deformer, self.target
+        Tg = d.sign * t.tangent
+        Um = rotate(t.normal, t.tangent, float(angle))
         Um -= (Um @ Tg) * Tg
         Um /= np.linalg.norm(Um)
         Fm = np.stack([Tg, Um, np.cross(Tg, Um)])
-        Q = Fm.T @ self.end_frame
-        return Q, origin + (self.V[self.moving] - self.end_center) @ Q.T
+        Q = Fm.T @ d.end_frame
+        return Q, t.origin + (d.V[d.moving] - d.end_center) @ Q.T
 
-    def handle_positions(self, target, angle):
-        """Positions (p + q, 3) of :attr:`handles` at ``angle``: fixed at rest, moving on the target."""
-        o, t, nrm = _target(target)
-        self._prepare(o, t, nrm)
-        _, Pm = self._end_map(angle)
-        return np.concatenate([self.V[self.fixed], Pm])
+    def handle_positions(self, angle):
+        """Positions (p + q, 3) of the deformer's handles: fixed at rest, moving on the target."""
+        _, Pm = self.end_map(angle)
+        return np.concatenate([self.deformer.V[self.deformer.fixed], Pm])
 
-    def rod(self, target, angle):
+    def rod(self, angle):
         """Steps 1-4 of the module notes: the rod placement of every vertex, (n, 3)."""
-        o, t, nrm = _target(target)
-        self._prepare(o, t, nrm)
-        X = self.V.copy()
-        a = (self._alpha0 + self._sign * float(angle)) * self._vg
+        d = self.deformer
+        X = d.V.copy()
+        a = self.alpha_end(angle) * self._vg
         ca, sa = np.cos(a), np.sin(a)
-        L = self._local
+        L = d.local
         x = ca * L[:, 1] - sa * L[:, 2]
         y = sa * L[:, 1] + ca * L[:, 2]
-        X[self._free] = self._vm + L[:, :1] * self._vT + x[:, None] * self._vU + y[:, None] * self._vV
-        _, X[self.moving] = self._end_map(angle)
+        X[d.free] = self._vm + L[:, :1] * self._vT + x[:, None] * self._vU + y[:, None] * self._vV
+        _, X[d.moving] = self.end_map(angle)
         return X
 
-    def deform(self, target, angle=0.0):
-        """Deformed vertices with the moving end on ``target`` turned by ``angle``.
+    def deform(self, angle=0.0):
+        """Deformed vertices with the moving end on the target turned by ``angle``.
 
         Parameters
         ----------
-        target : Frame or (origin, tangent, normal)
-            Where the moving end goes (see :class:`vesselgp.Frame`).
         angle : float
             Radians about the target tangent; 0 maps the rest U of the moving
             end onto the target normal.
@@ -421,22 +558,21 @@ class RodDeformer:
             Fixed vertices exactly at rest, moving vertices exactly on the
             rigid image of the end frame.
         """
-        o, t, nrm = _target(target)
-        self._prepare(o, t, nrm)
-        bc = self.handle_positions(target, angle)
-        if self.method == "laplacian":
-            X = igl.min_quad_with_fixed_solve(self._mqwf, self._lap_B, bc, np.zeros((0, 3)))
-        elif self.method == "arap":
-            X = self.V.copy()
-            X[self.handles] = bc
-            if self._arap is not None:
-                X = igl.arap_solve(bc, self._arap, X)
+        d = self.deformer
+        bc = self.handle_positions(angle)
+        if d.method == "laplacian":
+            X = d.laplacian(bc)
+        elif d.method == "arap":
+            X = d.V.copy()
+            X[d.handles] = bc
+            if d.arap_iterations > 0:
+                X = d.arap(X, bc)
         else:
-            X = self.rod(target, angle)
-            if self.method == "rod_arap" and self._arap is not None:
-                X = igl.arap_solve(bc, self._arap, X)
+            X = self.rod(angle)
+            if d.method == "rod_arap" and d.arap_iterations > 0:
+                X = d.arap(X, bc)
         X = np.array(X, dtype=np.float64, order="C")
-        X[self.handles] = bc
+        X[d.handles] = bc
         return X
 
 
@@ -475,7 +611,7 @@ def deform_vessel(V, F, fixed, moving, target, angle=0.0, *, method="rod_arap", 
     >>> na = 16; V = ves.V; rings = len(V) // na
     >>> fixed, moving = np.arange(na), np.arange((rings - 1) * na, rings * na)
     >>> d = RodDeformer(V, ves.F, fixed, moving, method="rod")
-    >>> X = d.deform((d.end_center, d.end_tangent, d.end_normal), np.pi / 2)
+    >>> X = d.place((d.end_center, d.end_tangent, d.end_normal)).deform(np.pi / 2)
     >>> mid = (rings // 2) * na
     >>> a = np.degrees(np.arctan2(*X[mid, [1, 0]]) - np.arctan2(*V[mid, [1, 0]]))
     >>> bool(abs(a - 90 * (rings // 2) / (rings - 1)) < 1e-6)
@@ -483,4 +619,4 @@ def deform_vessel(V, F, fixed, moving, target, angle=0.0, *, method="rod_arap", 
     """
     d = RodDeformer(V, F, fixed, moving, gc=gc, ends=ends, method=method,
                     arap_iterations=arap_iterations, stiffness=stiffness)
-    return d.deform(target, angle)
+    return d.place(target).deform(angle)

@@ -28,9 +28,10 @@ import nlopt
 import numpy as np
 
 from . import tolerances as tol
-from ._validate import as_mesh, as_vector
-from .deform import RodDeformer, as_vertex_ids
-from .errors import EndsError, FrameError, OptimizationError
+from ._validate import as_mesh
+from .deform import Frame, RodDeformer, as_vertex_ids
+from .errors import EndsError, FrameError, MismatchError, OptimizationError
+from .fit import fit_generalized_cylinder
 from .torsion import TorsionMeter, TorsionProfile
 
 log = logging.getLogger(__name__)
@@ -42,83 +43,6 @@ _NLOPT_NAMES = {
     6: "MAXTIME_REACHED", -1: "FAILURE", -2: "INVALID_ARGS", -3: "OUT_OF_MEMORY", -4: "ROUNDOFF_LIMITED",
     -5: "FORCED_STOP",
 }
-
-
-@dataclass(frozen=True)
-class Frame:
-    """Where the joined end goes: its centre, axis direction and reference normal.
-
-    Validated at construction: ``tangent`` is normalised, ``normal`` is made
-    perpendicular to it and normalised.
-
-    Attributes
-    ----------
-    origin : (3,) float64
-        New centre of the moving end.
-    tangent : (3,) float64
-        Unit direction of the vessel's axis at the end, pointing *out of* the
-        deformed vessel (for a join: minus the other vessel's outward end
-        direction from :func:`vesselgp.vessel_ends`).
-    normal : (3,) float64
-        Unit, perpendicular to ``tangent``: the image of the moving end's rest
-        normal U at angle 0.
-
-    Raises
-    ------
-    FrameError
-        Non-finite entries, zero tangent, or a normal parallel to the tangent.
-
-    Examples
-    --------
-    >>> f = Frame([0, 0, 0], [0, 0, 2], [1, 0, 1])
-    >>> f.tangent.tolist(), f.normal.tolist()
-    ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
-    >>> Frame([0, 0, 0], [0, 0, 1], [0, 0, 3])
-    Traceback (most recent call last):
-    ...
-    vesselgp.errors.FrameError: normal is parallel to tangent; give a normal across the axis
-    """
-
-    origin: np.ndarray
-    tangent: np.ndarray
-    normal: np.ndarray
-
-    def __post_init__(self):
-        o = as_vector(self.origin, "origin")
-        t = as_vector(self.tangent, "tangent")
-        # divide by the largest entry first: any non-zero length (1e-300 or
-        # 1e300) gives a unit vector, no overflow or underflow
-        mt = float(np.abs(t).max())
-        if not mt > 0:
-            raise FrameError("tangent is the zero vector; give the direction of the vessel axis at the join")
-        t = t / mt
-        t = t / np.linalg.norm(t)
-        n = as_vector(self.normal, "normal")
-        mn = float(np.abs(n).max())
-        if not mn > 0:
-            raise FrameError("normal is the zero vector; give a direction across the axis")
-        n = n / mn
-        nn = float(np.linalg.norm(n))
-        n = n - (n @ t) * t
-        if np.linalg.norm(n) < tol.FRAME_ORTHONORMAL * nn:
-            raise FrameError("normal is parallel to tangent; give a normal across the axis")
-        n = n / np.linalg.norm(n)
-        for name, v in (("origin", o), ("tangent", t), ("normal", n)):
-            v.setflags(write=False)
-            object.__setattr__(self, name, v)
-
-    @classmethod
-    def facing(cls, end, normal):
-        """Target that joins onto another vessel's end: centre ``end.center``, tangent ``-end.direction``.
-
-        Parameters
-        ----------
-        end : VesselEnd
-            The other vessel's end (``center``, unit outward ``direction``).
-        normal : (3,) float64
-            Where the moving end's rest U goes at angle 0.
-        """
-        return cls(end.center, -np.asarray(end.direction, float), normal)
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,6 +71,10 @@ class JoinResult:
         Number of energy evaluations (``len(angles)``).
     algorithm : str
         The NLopt algorithm used.
+    grid_scan : bool
+        True when the three probes did not give a convex parabola near the
+        zero-twist angle and a 12-point scan over a full turn chose NLopt's
+        start instead (the energy is then far from Fig. 4's quadratic shape).
     """
 
     angle: float
@@ -159,12 +87,7 @@ class JoinResult:
     status_name: str = ""
     n_evals: int = 0
     algorithm: str = "LN_BOBYQA"
-
-
-def _fit(V, F, ends):
-    from .fit import fit_generalized_cylinder
-
-    return fit_generalized_cylinder(V, F, ends=ends)
+    grid_scan: bool = False
 
 
 class JoinProblem:
@@ -201,9 +124,12 @@ class JoinProblem:
     Attributes
     ----------
     deformer : RodDeformer
+        Target-free precomputation (fit, factorisations).
     meter : TorsionMeter
     gc : GeneralizedCylinder
     target : Frame
+    placement : RodPlacement
+        The per-target part of the deformation.
 
     Examples
     --------
@@ -217,26 +143,48 @@ class JoinProblem:
     """
 
     def __init__(self, V, F, fixed, moving, target, *, method="rod_arap", gc=None, ends=None,
-                 arap_iterations=None, stiffness="uniform", smoothing=None, _shared=None):
+                 arap_iterations=None, stiffness="uniform", smoothing=None):
         if not isinstance(target, Frame):
             raise FrameError("target must be a vesselgp.Frame(origin, tangent, normal)")
+        V, F = as_mesh(V, F)
+        n = len(V)
+        fixed = as_vertex_ids(fixed, n, "fixed")
+        moving = as_vertex_ids(moving, n, "moving")
+        if np.intersect1d(fixed, moving).size:
+            raise EndsError("fixed and moving vertex sets overlap; the joined end cannot also be held")
+        if gc is None:
+            gc = fit_generalized_cylinder(V, F, ends=ends)
+        deformer = RodDeformer(V, F, fixed, moving, gc=gc, method=method,
+                               arap_iterations=arap_iterations, stiffness=stiffness)
+        meter = TorsionMeter(V, F, gc, smoothing=smoothing)
+        self._set(deformer, meter, target)
+
+    @classmethod
+    def from_precomputed(cls, deformer, meter, target):
+        """A problem for ``target`` that reuses a deformer's and a meter's factorisations.
+
+        Parameters
+        ----------
+        deformer : RodDeformer
+        meter : TorsionMeter
+            Built on the same rest mesh as ``deformer``.
+        target : Frame
+        """
+        if not isinstance(target, Frame):
+            raise FrameError("target must be a vesselgp.Frame(origin, tangent, normal)")
+        if not isinstance(deformer, RodDeformer) or not isinstance(meter, TorsionMeter):
+            raise MismatchError("from_precomputed needs a vesselgp.deform.RodDeformer and a vesselgp.TorsionMeter")
+        if meter.rest is not deformer.gc:
+            raise MismatchError("the meter and the deformer must share one rest fit (TorsionMeter(V, F, deformer.gc))")
+        self = cls.__new__(cls)
+        self._set(deformer, meter, target)
+        return self
+
+    def _set(self, deformer, meter, target):
         self.target = target
-        if _shared is not None:
-            self.V, self.F, self.gc, self.deformer, self.meter = _shared
-        else:
-            V, F = as_mesh(V, F)
-            n = len(V)
-            fixed = as_vertex_ids(fixed, n, "fixed")
-            moving = as_vertex_ids(moving, n, "moving")
-            if np.intersect1d(fixed, moving).size:
-                raise EndsError("fixed and moving vertex sets overlap; the joined end cannot also be held")
-            if gc is None:
-                gc = _fit(V, F, ends)
-            self.V, self.F, self.gc = V, F, gc
-            self.deformer = RodDeformer(V, F, fixed, moving, gc=gc, method=method,
-                                        arap_iterations=arap_iterations, stiffness=stiffness)
-            kw = {} if smoothing is None else {"smoothing": smoothing}
-            self.meter = TorsionMeter(V, F, gc, **kw)
+        self.deformer, self.meter = deformer, meter
+        self.V, self.F, self.gc = deformer.V, deformer.F, deformer.gc
+        self.placement = deformer.place(target)
         self._cache = {}
 
     @property
@@ -256,16 +204,15 @@ class JoinProblem:
         The minimum-torsion angle is close to it (exactly for the ``"rod"`` method
         up to the measurement's error).
         """
-        d = self.deformer
-        return -d.alpha_end(self.target, 0.0) * d._sign
+        return self.placement.zero_twist_angle
 
     def retarget(self, target):
         """A problem with another target sharing this one's fit, meter and factorisations."""
-        return JoinProblem(None, None, None, None, target, _shared=(self.V, self.F, self.gc, self.deformer, self.meter))
+        return JoinProblem.from_precomputed(self.deformer, self.meter, target)
 
     def deform(self, angle):
         """Deformed vertices (n, 3) with the moving end on the target turned by ``angle`` (radians)."""
-        return self.deformer.deform(self.target, float(angle))
+        return self.placement.deform(float(angle))
 
     def profile(self, angle):
         """:class:`vesselgp.TorsionProfile` of the deformation at ``angle``."""
@@ -301,15 +248,15 @@ def _parabola(a, e):
     return (-c1 / (2 * c2) if c2 > 0 else np.nan), c2
 
 
-def minimize_torsion(problem, *, xtol=tol.JOIN_XTOL, max_evals=tol.JOIN_MAX_EVALS, algorithm="LN_BOBYQA",
-                     initial_step=tol.JOIN_INITIAL_STEP, probe_step=tol.JOIN_PROBE_STEP):
+def minimize_torsion(problem, *, xtol=None, max_evals=None, algorithm="LN_BOBYQA", initial_step=None,
+                     probe_step=None):
     """Angle of the joined end with the least torsion energy (paper Section 2.3, Fig. 2e/3e).
 
     1. Three probes at ``a0`` and ``a0 +- JOIN_PROBE_STEP`` where ``a0`` is the
        rod's zero-twist angle (:attr:`JoinProblem.zero_twist_angle`); the vertex
        of their parabola estimates the optimum (the energy is close to quadratic,
        Fig. 4). If the parabola is not convex, a 12-point grid over a full turn
-       picks the start instead.
+       picks the start instead (``JoinResult.grid_scan``).
     2. NLopt (default ``LN_BOBYQA``, a derivative-free quadratic-model method)
        within ``+- JOIN_BRACKET`` of the estimate, ``xtol`` absolute.
     3. The best evaluated angle is returned (never worse than a probe).
@@ -317,16 +264,17 @@ def minimize_torsion(problem, *, xtol=tol.JOIN_XTOL, max_evals=tol.JOIN_MAX_EVAL
     Parameters
     ----------
     problem : JoinProblem
-    xtol : float
-        Absolute tolerance on the angle, radians.
-    max_evals : int
-        Maximum NLopt evaluations (the probes come on top).
+    xtol : float, optional
+        Absolute tolerance on the angle, radians (default ``tolerances.JOIN_XTOL``,
+        read at call time; likewise the other defaults below).
+    max_evals : int, optional
+        Maximum NLopt evaluations (the probes come on top; ``JOIN_MAX_EVALS``).
     algorithm : str
         Name of a derivative-free NLopt algorithm (``"LN_BOBYQA"``, ``"LN_COBYLA"``, ...).
-    initial_step : float
-        NLopt's first step from the parabola's vertex, radians.
-    probe_step : float
-        Spacing of the three probes, radians.
+    initial_step : float, optional
+        NLopt's first step from the parabola's vertex, radians (``JOIN_INITIAL_STEP``).
+    probe_step : float, optional
+        Spacing of the three probes, radians (``JOIN_PROBE_STEP``).
 
     Returns
     -------
@@ -352,55 +300,78 @@ def minimize_torsion(problem, *, xtol=tol.JOIN_XTOL, max_evals=tol.JOIN_MAX_EVAL
     alg = getattr(nlopt, str(algorithm), None)
     if alg is None or not str(algorithm).startswith(("LN_", "GN_")):
         raise OptimizationError(f"unknown derivative-free NLopt algorithm {algorithm!r}; use e.g. 'LN_BOBYQA'")
-    angles, energies = [], []
+    xtol = tol.JOIN_XTOL if xtol is None else float(xtol)
+    max_evals = tol.JOIN_MAX_EVALS if max_evals is None else int(max_evals)
+    initial_step = tol.JOIN_INITIAL_STEP if initial_step is None else float(initial_step)
+    probe_step = tol.JOIN_PROBE_STEP if probe_step is None else float(probe_step)
+    log_ = _EnergyLog(problem)
+    centre, grid_scan = _bracket_centre(log_, float(problem.zero_twist_angle), probe_step)
+    status = _polish(log_, alg, str(algorithm), centre, xtol, max_evals, initial_step)
+    A, E = np.array(log_.angles), np.array(log_.energies)
+    k = int(np.argmin(E))
+    best = float(A[k])
+    X, prof = problem._evaluate(best)
+    name = _NLOPT_NAMES.get(status, str(status))
+    log.info("minimize_torsion: angle %.4f deg, energy %.4g, %d evaluations, %s%s",
+             np.degrees(best), E[k], len(A), name, " (after a grid scan)" if grid_scan else "")
+    return JoinResult(angle=best, energy=float(E[k]), V=X, profile=prof, angles=A, energies=E,
+                      status=status, status_name=name, n_evals=len(A), algorithm=str(algorithm),
+                      grid_scan=grid_scan)
 
-    def f(a):
-        e = problem.energy(a)
-        angles.append(float(a))
-        energies.append(e)
+
+class _EnergyLog:
+    """The problem's energy as an objective that records every evaluation and refuses non-finite values."""
+
+    def __init__(self, problem):
+        self.problem = problem
+        self.angles, self.energies = [], []
+
+    def __call__(self, a):
+        e = self.problem.energy(a)
+        self.angles.append(float(a))
+        self.energies.append(e)
         if not np.isfinite(e):
             raise OptimizationError(
                 f"torsion energy is not finite at angle {np.degrees(a):.3g} degrees; check the mesh and target"
             )
         return e
 
-    a0 = float(problem.zero_twist_angle)
-    h = float(probe_step)
+
+def _bracket_centre(f, a0, h):
+    """Vertex of the parabola through three probes about ``a0``; a full-turn grid's best when not convex.
+
+    Returns the centre and whether the grid scan was used.
+    """
     probes = np.array([a0 - h, a0, a0 + h])
     ep = np.array([f(a) for a in probes])
-    centre, curv = _parabola(probes, ep)
-    if not np.isfinite(centre) or abs(centre - a0) > 3 * h:
-        log.info("energy not convex near the zero-twist angle; scanning a full turn")
-        grid = a0 + np.linspace(-np.pi, np.pi, 12, endpoint=False)
-        eg = np.array([f(a) for a in grid])
-        centre = float(grid[int(np.argmin(eg))])
-    lo, hi = centre - tol.JOIN_BRACKET, centre + tol.JOIN_BRACKET
+    centre, _ = _parabola(probes, ep)
+    if np.isfinite(centre) and abs(centre - a0) <= 3 * h:
+        return float(centre), False
+    log.warning("torsion energy is not convex near the zero-twist angle; scanning a full turn for the start")
+    grid = a0 + np.linspace(-np.pi, np.pi, tol.JOIN_GRID_POINTS, endpoint=False)
+    eg = np.array([f(a) for a in grid])
+    return float(grid[int(np.argmin(eg))]), True
+
+
+def _polish(f, alg, algorithm, centre, xtol, max_evals, initial_step):
+    """NLopt within ``+- JOIN_BRACKET`` of ``centre``; returns NLopt's result code."""
     opt = nlopt.opt(alg, 1)
     opt.set_min_objective(lambda x, grad: f(float(x[0])))
-    opt.set_lower_bounds([lo])
-    opt.set_upper_bounds([hi])
-    opt.set_xtol_abs(float(xtol))
+    opt.set_lower_bounds([centre - tol.JOIN_BRACKET])
+    opt.set_upper_bounds([centre + tol.JOIN_BRACKET])
+    opt.set_xtol_abs(xtol)
     opt.set_ftol_rel(tol.JOIN_FTOL_REL)
-    opt.set_maxeval(int(max_evals))
-    opt.set_initial_step([float(initial_step)])
+    opt.set_maxeval(max_evals)
+    opt.set_initial_step([initial_step])
     try:
         opt.optimize([centre])
-        status = int(opt.last_optimize_result())
+        return int(opt.last_optimize_result())
     except nlopt.RoundoffLimited:
-        status = nlopt.ROUNDOFF_LIMITED
+        return nlopt.ROUNDOFF_LIMITED
     except OptimizationError:
         raise
     except (RuntimeError, ValueError, MemoryError) as exc:
         raise OptimizationError(f"NLopt {algorithm} failed: {exc}; try algorithm='LN_COBYLA'") from None
-    A, E = np.array(angles), np.array(energies)
-    k = int(np.argmin(E))
-    best = float(A[k])
-    X, prof = problem._evaluate(best)
-    log.info("minimize_torsion: angle %.4f deg, energy %.4g, %d evaluations, %s",
-             np.degrees(best), E[k], len(A), _NLOPT_NAMES.get(status, str(status)))
-    return JoinResult(angle=best, energy=float(E[k]), V=X, profile=prof, angles=A, energies=E,
-                      status=status, status_name=_NLOPT_NAMES.get(status, str(status)), n_evals=len(A),
-                      algorithm=str(algorithm))
 
 
 # ----------------------------------------------------------------------------- stitching

@@ -106,6 +106,8 @@ def rotate(v, axis, angle):
     [0.0, 1.0, 0.0]
     """
     v = np.asarray(v, float)
+    if not v.flags.writeable:  # scipy's apply needs a writeable buffer (read-only Frame fields)
+        v = v.copy()
     rv = np.asarray(axis, float) * np.asarray(angle, float)[..., None]
     return Rotation.from_rotvec(rv).apply(v)
 

@@ -24,6 +24,13 @@ FRENET_SMOOTHING_SCALES = 0.7
 #: The same for a fitted (noisy) axis: bend radius above 500 length scales (radii) is straight.
 STRAIGHT_KAPPA_R_FITTED = 2e-3
 
+#: Consecutive curve points closer than this fraction of the curve's length are repeats.
+REPEATED_POINT = 1e-12
+
+#: An axis whose points all lie within this fraction of its length of the line through
+#: its first point along its first tangent is straight (no bend direction for U).
+STRAIGHT_AXIS_DEVIATION = 1e-3
+
 #: Orthonormality tolerance for frames handed to the library by a user.
 FRAME_ORTHONORMAL = 1e-6
 
@@ -57,6 +64,14 @@ GC_OUTLIER_SIGMAS = 4.0
 #: Vertices where the tube map folds (1 - kappa . offset below this) are not used:
 #: they sit inside the bend further than the local radius of curvature.
 GC_MIN_STRETCH = 0.1
+#: Ridge on the circle fit's area unknowns d = R^2 - |c|^2 (relative to the mean data
+#: weight, per squared radius): keeps d defined at nodes without data.
+GC_AREA_RIDGE = 1e-6
+#: Ridge on Eq. 4's radius system (relative to the mean data weight).
+GC_RADIUS_RIDGE = 1e-9
+#: Entries of the distance block formed at a time when projecting points that have
+#: no candidate axis sample among their nearest ones (memory bound).
+PROJECTION_CHUNK = 4_000_000
 #: Above this many vertices the harmonic initialisation runs on a vertex-clustered copy.
 GC_COARSE_INIT_VERTICES = 15000
 #: Cells of that copy are at most this many (end) radii wide, so they never bridge the lumen.
@@ -79,6 +94,10 @@ TORSION_RECOVERY_VERTICES = 20000
 #: rest and deformed angles of the same subset); each bin still averages hundreds of
 #: vertices, and ``TorsionProfile.vertex_alpha`` is given for every vertex.
 TORSION_MEAN_VERTICES = 50000
+#: Ridge on Eq. 6's system (relative to its mean diagonal): keeps it definite.
+TORSION_EQ6_RIDGE = 1e-12
+#: Circle-fit corrections of the deformed axis after Eq. 6 (they remove Eq. 1's bend bias).
+TORSION_BIAS_CORRECTIONS = 2
 #: Bins of Eq. 7's circular mean per axis node (node spacing is half a radius).
 TORSION_BINS_PER_NODE = 2
 #: Smoothing length of the material-angle profile alpha(s), in axis-node
@@ -115,6 +134,9 @@ SYNTH_MAX_FOLD = 0.9
 #: ARAP iterations refining the rod placement (method "rod_arap"); the rod start is
 #: already close to an ARAP minimum, more iterations only cost time.
 DEFORM_REFINE_ITERATIONS = 1
+#: The free part starts at the dense axis node at the fixed vertex nearest the moving end,
+#: with this fraction of half a sample spacing of slack (round-off at a node).
+DEFORM_NODE_SLACK = 1e-6
 #: ARAP iterations of the plain "arap" comparison method (from the rest shape).
 DEFORM_ARAP_ITERATIONS = 10
 #: Moving vertices must lie within this many mean radii (along the axis) of a vessel end.
@@ -131,10 +153,12 @@ JOIN_INITIAL_STEP = 0.05
 JOIN_XTOL = 1e-4
 #: Relative tolerance on the energy for NLopt.
 JOIN_FTOL_REL = 1e-10
+#: Points of the full-turn scan that picks NLopt's start when the probes' parabola is not convex.
+JOIN_GRID_POINTS = 12
 #: Maximum NLopt energy evaluations (after the probes).
 JOIN_MAX_EVALS = 40
 
-# --- figures, demo and command line (vesselgp.viz, vesselgp.demo, vesselgp.cli) ---
+# --- figures, demo and command line (vesselgp.viz, vesselgp.pipeline, vesselgp.cli) ---
 #: Smallest half-range of the symmetric colour scale of a signed quantity, in
 #: the quantity's units (degrees in every figure): an untwisted vessel is not
 #: coloured by round-off.

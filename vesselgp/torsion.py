@@ -38,16 +38,10 @@ from . import tolerances as tol
 from ._validate import as_mesh, as_points
 from .curves import frenet
 from .errors import MismatchError
-from .fit import (
-    GeneralizedCylinder,
-    _Axis,
-    _basis_matrix,
-    _circle_update,
-    _diff,
-    _local_coords,
-    _subset,
-    fit_generalized_cylinder,
-)
+from ._arrays import thinned
+from .axis import Axis, circle_fit_correction, difference_matrix, hat_matrix, local_coords
+from .fit import GeneralizedCylinder, fit_generalized_cylinder
+from .rotations import wrap_angle
 
 log = logging.getLogger(__name__)
 
@@ -128,11 +122,6 @@ class TorsionProfile:
         return self._frenet.defined
 
 
-def _wrap(a):
-    """Wrap angles to (-pi, pi]."""
-    return np.pi - np.mod(np.pi - a, 2 * np.pi)
-
-
 class TorsionMeter:
     """Measures torsion of many deformations of one rest vessel (precompute object).
 
@@ -151,12 +140,14 @@ class TorsionMeter:
         Fitted on ``V_rest``; fitted here when omitted.
     ends : optional
         Passed to :func:`vesselgp.fit_generalized_cylinder` when ``rest`` is fitted here.
-    smoothing : float
+    smoothing : float, optional
         Smoothing length of the alpha spline in axis-node spacings (half a
         mean radius each); twist that varies faster than this is damped.
-    correct_bias : int
+        Default ``tolerances.TORSION_SMOOTHING``, read when the meter is built.
+    correct_bias : int, optional
         Number of circle-fit corrections after Eq. 6 (they remove Eq. 1's bend
-        bias); 0 keeps the plain Eq. 6 axis.
+        bias); 0 keeps the plain Eq. 6 axis. Default
+        ``tolerances.TORSION_BIAS_CORRECTIONS``.
 
     Examples
     --------
@@ -168,7 +159,7 @@ class TorsionMeter:
     90
     """
 
-    def __init__(self, V_rest, F, rest=None, *, ends=None, smoothing=tol.TORSION_SMOOTHING, correct_bias=2):
+    def __init__(self, V_rest, F, rest=None, *, ends=None, smoothing=None, correct_bias=None):
         V_rest, F = as_mesh(V_rest, F)
         self.F = F
         self.n = len(V_rest)
@@ -182,24 +173,25 @@ class TorsionMeter:
                 "fit it on V_rest"
             )
         self.rest = rest
-        self.smoothing = smoothing
-        self.correct_bias = correct_bias
+        self.smoothing = tol.TORSION_SMOOTHING if smoothing is None else float(smoothing)
+        self.correct_bias = tol.TORSION_BIAS_CORRECTIONS if correct_bias is None else int(correct_bias)
+        self.lam = rest.lam  # Eq. 2's lambda of the rest fit, for Eq. 6
         K = len(rest.s)
         self.K = K
         self.n_bins = tol.TORSION_BINS_PER_NODE * K
-        self._sub = _subset(self.n, tol.TORSION_RECOVERY_VERTICES)  # bias correction on a thinned subset
-        self._mean = _subset(self.n, tol.TORSION_MEAN_VERTICES)  # Eq. 7 means on a thinned subset
+        self._sub = thinned(self.n, tol.TORSION_RECOVERY_VERTICES)  # bias correction on a thinned subset
+        self._mean = thinned(self.n, tol.TORSION_MEAN_VERTICES)  # Eq. 7 means on a thinned subset
         self.s0 = rest.vertex_s
         self.w = rest.vertex_weight
         self.area = rest.vertex_area
         self.rscale = rest.mean_radius
         # Eq. 6: (B^T W B + lambda R) m = B^T W p, factorised once.
-        B = _basis_matrix(self.s0, K)
+        B = hat_matrix(self.s0, K)
         self.BtW = (B.multiply(self.area[:, None])).T.tocsr()
         N = (self.BtW @ B).tocsc()
         Wbar = float(N.diagonal().mean())
-        D2 = _diff(K, 2)
-        N = N + tol.GC_LAMBDA * Wbar * (D2.T @ D2) + 1e-12 * Wbar * sp.eye(K)
+        D2 = difference_matrix(K, 2)
+        N = N + self.lam * Wbar * (D2.T @ D2) + tol.TORSION_EQ6_RIDGE * Wbar * sp.eye(K)
         self._eq6 = spla.splu(N.tocsc())
         # rest angles by the same recovery
         self._theta0 = None
@@ -208,16 +200,16 @@ class TorsionMeter:
     def _recover_axis(self, V):
         """Eq. 6 with the rest correspondence, then the circle-fit correction."""
         nodes = self._eq6.solve(np.asarray(self.BtW @ V))
-        axis = _Axis(nodes)
+        axis = Axis(nodes)
         sub = self._sub
         Vs = V[sub]
         for _ in range(self.correct_bias):
             s = self._map_s(axis, nodes, sub)
-            local, jac = _local_coords(axis, Vs, s)
+            local, jac = local_coords(axis, Vs, s)
             w = self.area[sub] / np.clip(jac, tol.GC_MIN_STRETCH, None)
             _, frn = axis.at(self._node_s(axis, nodes))
-            nodes = nodes + _circle_update(frn, nodes, s, local, w, tol.GC_LAMBDA, self.rscale, pin_ends=False)
-            axis = _Axis(nodes)
+            nodes = nodes + circle_fit_correction(frn, nodes, s, local, w, self.lam, self.rscale, pin_ends=False)
+            axis = Axis(nodes)
         return axis, nodes
 
     def _node_s(self, axis, nodes):
@@ -262,7 +254,7 @@ class TorsionMeter:
                 "the deformed mesh must keep the rest mesh's vertices and faces"
             )
         axis, nodes, theta = self._parameterise(V)
-        dtheta = _wrap(theta - self._theta0)
+        dtheta = wrap_angle(theta - self._theta0)
         return self._profile(axis, nodes, dtheta)
 
     def _profile(self, axis, nodes, dtheta):
@@ -286,8 +278,7 @@ class TorsionMeter:
         sb, ab, wts = sb[keep], ab[keep], wts[keep]
         # smoothing length: `smoothing` node spacings (a node is half a radius);
         # lam = (bins per unit s) * length^4 gives a transfer 1 / (1 + (omega length)^4)
-        smoothing = tol.TORSION_SMOOTHING if self.smoothing is None else float(self.smoothing)
-        lam = len(sb) * (smoothing / K) ** 4
+        lam = len(sb) * (self.smoothing / K) ** 4
         spl = make_smoothing_spline(sb, ab, w=wts / wts.mean(), lam=lam)
         sK = np.linspace(0.0, 1.0, K)
         a0 = float(spl(0.0))
@@ -315,7 +306,7 @@ class TorsionMeter:
         )
 
 
-def measure_torsion(V_rest, V_deformed, F, rest=None, *, ends=None, smoothing=tol.TORSION_SMOOTHING):
+def measure_torsion(V_rest, V_deformed, F, rest=None, *, ends=None, smoothing=None):
     """Material torsion of a deformed vessel against its RMF (paper Eq. 6-8).
 
     One-off form of :class:`TorsionMeter`; use the meter when measuring many
@@ -333,8 +324,9 @@ def measure_torsion(V_rest, V_deformed, F, rest=None, *, ends=None, smoothing=to
         Fitted on ``V_rest`` (fitted when omitted).
     ends : optional
         Ends for the rest fit (see :func:`vesselgp.fit_generalized_cylinder`).
-    smoothing : float
-        Smoothing length of the alpha spline, in axis-node spacings.
+    smoothing : float, optional
+        Smoothing length of the alpha spline, in axis-node spacings (default
+        ``tolerances.TORSION_SMOOTHING``).
 
     Returns
     -------

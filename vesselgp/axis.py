@@ -1,0 +1,324 @@
+"""The axis machinery shared by the fit (Eq. 1-5) and the torsion measurement (Eq. 6-8).
+
+* :class:`Axis`: an axis through node points, resampled densely at equal arc
+  length with its rotation-minimizing frame (double reflection, paper
+  Section 1), its curvature vector, linear interpolation of points and
+  frames, and the closest-point projection of vertices (``s_i``).
+* :func:`hat_matrix`, :func:`difference_matrix`: piecewise-linear (hat)
+  functions of ``s`` on uniform nodes and their difference operators: the
+  discretisation of Eq. 2-5.
+* :func:`circle_fit_correction`: one linear solve of the area-weighted circle
+  fit that replaces Eq. 1's centroid (no bend bias), with Eq. 2's ``lambda``
+  regulariser on the second difference of the axis.
+* :func:`local_coords`: coordinates of vertices in the frame at their ``s``.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.linalg import solveh_banded
+from scipy.spatial import cKDTree
+
+from . import tolerances as tol
+from .curves import chord_length, resample_arclength, rotation_minimizing_frames
+from .errors import NotTubularError
+from .rotations import perpendicular
+
+__all__ = ["Axis", "interp_frames", "hat", "hat_matrix", "difference_matrix", "circle_fit_correction",
+           "checked_solution", "local_coords"]
+
+
+def _segment_table(dp, dfr, kvec=None):
+    """Per-segment table [p, dp, T, dT, (k,) U, dU] for one-gather interpolation.
+
+    Columns 0-11 hold points and tangents, 12-14 the curvature vector when
+    given, then U and its difference (so the Newton projection gathers one
+    contiguous block).
+    """
+    cols = [dp[:-1], np.diff(dp, axis=0), dfr[:-1, 0], np.diff(dfr[:, 0], axis=0)]
+    if kvec is not None:
+        cols.append(0.5 * (kvec[:-1] + kvec[1:]))
+    cols += [dfr[:-1, 1], np.diff(dfr[:, 1], axis=0)]
+    return np.ascontiguousarray(np.hstack(cols))
+
+
+def interp_frames(ds, dp, dfr, s, frames=True, table=None):
+    """Linear interpolation of dense axis samples and frames at ``s`` (re-orthonormalised).
+
+    ``ds`` must be uniform (equal arc-length samples). With ``frames=False``
+    only the points and unit tangents are returned (the Newton projection
+    needs no more). ``table`` is :func:`_segment_table` of ``dp, dfr``.
+    """
+    s = np.clip(np.asarray(s, float), 0.0, 1.0)
+    M = len(ds)
+    x = s * (M - 1)
+    j = np.minimum(x.astype(np.int64), M - 2)
+    t = (x - j)[:, None]
+    if table is None:
+        table = _segment_table(dp, dfr)
+    u0 = table.shape[1] - 6  # U columns start here (after the optional curvature)
+    G = table[j] if frames else table[j, :u0]
+    pts = G[:, 0:3] + t * G[:, 3:6]
+    T = G[:, 6:9] + t * G[:, 9:12]
+    T /= np.sqrt(np.einsum("ij,ij->i", T, T))[:, None]
+    if not frames:
+        return pts, T, (G[:, 12:15] if u0 > 12 else None)
+    U = G[:, u0 : u0 + 3] + t * G[:, u0 + 3 : u0 + 6]
+    U -= np.einsum("ij,ij->i", U, T)[:, None] * T
+    U /= np.sqrt(np.einsum("ij,ij->i", U, U))[:, None]
+    return pts, np.stack([T, U, np.cross(T, U)], axis=1)
+
+
+class Axis:
+    """An axis through node points, resampled densely at equal arc length with its RMF.
+
+    Parameters
+    ----------
+    nodes : (K, 3) float64
+        Axis nodes; a cubic spline through them (over chord length) is the axis.
+    initial_normal : (3,) float64, optional
+        U at ``s = 0``. Default: towards the way the axis bends (rigid-covariant);
+        a fixed coordinate direction for a straight axis (documented degenerate case).
+    samples_per_node : int, optional
+        Dense samples per node spacing (default ``tolerances.GC_SAMPLES_PER_NODE``).
+
+    Attributes
+    ----------
+    s : (M,) float64
+        Uniform normalised arc length of the dense samples.
+    points : (M, 3) float64
+    frames : (M, 3, 3) float64
+        RMF, rows ``T, U, V`` (double reflection, paper Section 1).
+    kvec : (M, 3) float64
+        Curvature vector ``dT/ds`` per mesh unit.
+    length : float
+        Arc length, mesh units.
+
+    Raises
+    ------
+    NotTubularError
+        When the nodes collapse to a point.
+    """
+
+    def __init__(self, nodes, initial_normal=None, samples_per_node=None):
+        spn = tol.GC_SAMPLES_PER_NODE if samples_per_node is None else int(samples_per_node)
+        M = spn * (len(nodes) - 1) + 1
+        self.points, T, self.length = resample_arclength(nodes, M, with_tangents=True)
+        self.s = np.linspace(0.0, 1.0, M)
+        if initial_normal is None:
+            initial_normal = _default_normal(self.points, T[0])
+        T, U, V = rotation_minimizing_frames(self.points, T, initial_normal=initial_normal)
+        self.frames = np.stack([T, U, V], axis=1)
+        # curvature vector dT/ds (per mesh unit) at the dense samples
+        self.kvec = np.gradient(T, self.s * self.length, axis=0)
+        self.table = _segment_table(self.points, self.frames, self.kvec)
+        self._tree = None
+
+    def stretch(self, s, d):
+        """Jacobian 1 - k(s) . d of the tube map at offset ``d`` from the axis point at ``s``.
+
+        The wall's area per unit axis length and unit angle grows by this
+        factor towards the outside of a bend; dividing the vertex areas by it
+        gives every direction about the axis equal weight (removes the bend bias
+        of Eq. 1).
+        """
+        j = np.clip(np.rint(np.clip(s, 0, 1) * (len(self.s) - 1)).astype(np.int64), 0, len(self.s) - 1)
+        return 1.0 - np.einsum("ij,ij->i", self.kvec[j], d)
+
+    def at(self, s):
+        return interp_frames(self.s, self.points, self.frames, s, table=self.table)
+
+    def _nearest_in_window(self, P, s_prev, window):
+        """Parameter of the closest dense sample within ``window`` of ``s_prev`` (exhaustive).
+
+        For the few points whose k nearest samples all lie outside their window
+        (a vessel folded close to itself): every sample in the window is tried.
+        """
+        out = np.empty(len(P))
+        chunk = max(1, tol.PROJECTION_CHUNK // len(self.s))
+        for a in range(0, len(P), chunk):
+            Pc, sc = P[a:a + chunk], s_prev[a:a + chunk]
+            d2 = np.einsum("ij,ij->i", Pc, Pc)[:, None] - 2 * Pc @ self.points.T \
+                + np.einsum("ij,ij->i", self.points, self.points)[None]
+            d2[np.abs(self.s[None] - sc[:, None]) > window] = np.inf
+            out[a:a + chunk] = self.s[np.argmin(d2, axis=1)]
+        # a window always holds the sample nearest s_prev: it is never empty
+        return out
+
+    def project(self, P, s_prev, window=None):
+        """Closest-point parameter of each row of ``P`` near its previous parameter.
+
+        With a ``window``, candidates are the dense samples nearest to each
+        point (k-d tree); among those within ``window`` of ``s_prev`` the
+        closest wins, which keeps a vertex on its own stretch of axis where the
+        vessel comes close to itself. Without one, ``s_prev`` is trusted as the
+        start (the axis moved little since). Newton steps then refine ``s`` on
+        the interpolated axis.
+
+        Returns ``s`` (unclipped, may leave [0, 1] beyond the ends).
+        """
+        if window is None:
+            s = np.asarray(s_prev, float).copy()
+        else:
+            if self._tree is None:
+                self._tree = cKDTree(self.points)
+            kq = min(8, len(self.s))
+            dist, idx = self._tree.query(P, k=kq)
+            sc = self.s[idx]
+            far = np.abs(sc - s_prev[:, None]) > window
+            d = np.where(far, np.inf, dist)
+            best = np.argmin(d, axis=1)
+            s = sc[np.arange(len(P)), best]
+            none = np.flatnonzero(~np.isfinite(d[np.arange(len(P)), best]))
+            if none.size:
+                s[none] = self._nearest_in_window(P[none], s_prev[none], window)
+        for _ in range(tol.GC_NEWTON_STEPS):
+            s = np.clip(s, 0, 1)
+            pts, T, k = interp_frames(self.s, self.points, self.frames, s, frames=False, table=self.table)
+            d = P - pts
+            # d/ds of (p - m(s)) . T(s) is -(1 - k . d) times the length
+            jac = np.maximum(1.0 - np.einsum("ij,ij->i", k, d), tol.GC_MIN_STRETCH)
+            s = s + np.einsum("ij,ij->i", d, T) / (self.length * jac)
+        return s
+
+
+def _default_normal(points, t0):
+    """Rigid-covariant choice of U at s = 0: towards the axis point farthest from the
+    line through the first point along the first tangent (the way the vessel bends).
+    Falls back to a fixed coordinate direction for a straight axis (documented)."""
+    d = points - points[0]
+    d -= np.outer(d @ t0, t0)
+    n = np.linalg.norm(d, axis=1)
+    j = int(np.argmax(n))
+    scale = chord_length(points)[-1]
+    if n[j] > tol.STRAIGHT_AXIS_DEVIATION * scale:
+        return d[j] / n[j]
+    return perpendicular(t0)
+
+
+def hat(s, K):
+    """Piecewise-linear basis on K uniform nodes over [0, 1]: left index and weight of the right node."""
+    x = np.clip(s, 0.0, 1.0) * (K - 1)
+    j = np.minimum(np.floor(x).astype(np.int64), K - 2)
+    return j, x - j
+
+
+def hat_matrix(s, K):
+    j, t = hat(s, K)
+    n = len(s)
+    rows = np.repeat(np.arange(n), 2)
+    cols = np.stack([j, j + 1], axis=1).ravel()
+    vals = np.stack([1 - t, t], axis=1).ravel()
+    return sp.csr_matrix((vals, (rows, cols)), shape=(n, K))
+
+
+def difference_matrix(K, order):
+    D = sp.eye(K, format="csr")
+    for _ in range(order):
+        D = (D[1:] - D[:-1]).tocsr()
+    return D
+
+
+def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_ends=True):
+    """One linear solve of the area-weighted Kasa circle fit with hat functions in s.
+
+    Unknowns per node: centre correction ``(cx, cy)`` in the node frame (U, V)
+    and ``d = R^2 - |c|^2``. Residual per vertex (divided by ``2 rscale``):
+    ``(x^2 + y^2 - 2 cx x - 2 cy y - d)``. Regulariser: ``lam`` times the second
+    difference of the corrected 3-D axis (Eq. 2's lambda term, second order).
+
+    The normal equations are assembled straight into banded form (unknowns
+    interleaved per node, bandwidth 7) and solved by banded Cholesky: O(n + K)
+    with no sparse-matrix algebra.
+
+    Returns the corrections as 3-D vectors, (K, 3).
+    """
+    K = len(centers)
+    n3 = 3 * K
+    j, t = hat(s, K)
+    x, y = local[:, 1], local[:, 2]
+    sw = np.sqrt(w) / (2.0 * rscale)
+    c = (2 * x * sw, 2 * y * sw, sw)  # coefficients of cx, cy, d in each residual
+    b = (x * x + y * y) * sw
+    phi = (1.0 - t, t)  # hat weights of nodes j and j + 1
+    rows, cols, vals = [], [], []
+    rhs = np.zeros(n3)
+    jj = np.arange(K - 1)
+    for p in range(2):
+        for a in range(3):
+            rhs[3 * (jj + p) + a] += np.bincount(j, c[a] * phi[p] * b, minlength=K - 1)
+            for q in range(2):
+                for bb in range(3):
+                    if 3 * p + a < 3 * q + bb:
+                        continue  # lower triangle only
+                    rows.append(3 * (jj + p) + a)
+                    cols.append(3 * (jj + q) + bb)
+                    vals.append(np.bincount(j, c[a] * c[bb] * phi[p] * phi[q], minlength=K - 1))
+    Wbar = float(_node_diagonal(j, c[0], phi, K).mean())
+    # Eq. 2's lambda on the second difference of the corrected axis, sum_m |D2 (C + Delta)|^2
+    # with Delta_k = cx_k U_k + cy_k V_k
+    E = (axis_frames_nodes[:, 1], axis_frames_nodes[:, 2])
+    d2c = centers[:-2] - 2 * centers[1:-1] + centers[2:]
+    m = np.arange(K - 2)
+    wts = (1.0, -2.0, 1.0)
+    lw = lam * Wbar
+    for p in range(3):
+        for a in range(2):
+            rhs[3 * (m + p) + a] -= lw * wts[p] * np.einsum("ij,ij->i", E[a][m + p], d2c)
+            for q in range(3):
+                for bb in range(2):
+                    if 3 * p + a < 3 * q + bb:
+                        continue
+                    rows.append(3 * (m + p) + a)
+                    cols.append(3 * (m + q) + bb)
+                    vals.append(lw * wts[p] * wts[q] * np.einsum("ij,ij->i", E[a][m + p], E[bb][m + q]))
+    # keep d well posed where a node has no data (d is an area: its weight is
+    # divided by rscale^2 so that the fit is the same in any length unit)
+    ed = tol.GC_AREA_RIDGE * Wbar / rscale**2
+    k1 = np.arange(K - 1)
+    rows += [3 * k1 + 2, 3 * k1 + 5, 3 * k1 + 5]
+    cols += [3 * k1 + 2, 3 * k1 + 5, 3 * k1 + 2]
+    vals += [np.full(K - 1, ed), np.full(K - 1, ed), np.full(K - 1, -ed)]
+    rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
+    if pin_ends:
+        pinned = np.array([0, 1, 3 * (K - 1), 3 * (K - 1) + 1])
+        keep = ~(np.isin(rows, pinned) | np.isin(cols, pinned))
+        rows, cols, vals = (np.concatenate([v[keep], e]) for v, e in zip((rows, cols, vals), (pinned, pinned, np.ones(4))))
+        rhs[pinned] = 0.0
+    bw = int((rows - cols).max())
+    ab = np.bincount((rows - cols) * n3 + cols, vals, minlength=(bw + 1) * n3).reshape(bw + 1, n3)
+    sol = _solve_banded(ab, rhs)
+    return sol[0::3, None] * E[0] + sol[1::3, None] * E[1]
+
+
+def _node_diagonal(j, c0, phi, K):
+    """Diagonal of the cx block of the data term: sum of (c0 phi)^2 onto each node."""
+    d = np.zeros(K)
+    d[:-1] += np.bincount(j, (c0 * phi[0]) ** 2, minlength=K - 1)
+    d[1:] += np.bincount(j, (c0 * phi[1]) ** 2, minlength=K - 1)
+    return d
+
+
+def checked_solution(x):
+    """``x`` when finite; None or a non-finite solve means the surface does not surround an axis."""
+    if x is None or not np.all(np.isfinite(x)):
+        raise NotTubularError(
+            "mesh is not tubular: the generalized-cylinder fit is singular (the surface does not "
+            "surround an axis: flat, collapsed or torn); check the mesh, e.g. with vesselgp.clean_mesh"
+        )
+    return x
+
+
+def _solve_banded(ab, rhs):
+    """Banded Cholesky solve (lower form); failure means the surface does not surround an axis."""
+    try:
+        x = solveh_banded(ab, rhs, lower=True)
+    except (np.linalg.LinAlgError, ValueError):
+        x = None
+    return checked_solution(x)
+
+
+def local_coords(axis, P, s):
+    pts, fr = axis.at(s)
+    d = P - pts
+    return np.einsum("nij,nj->ni", fr, d), axis.stretch(s, d)

@@ -1,0 +1,602 @@
+"""End-to-end runs behind the ``vesselgp`` commands, and their reports.
+
+Each ``run_*`` function takes inputs (arrays or file paths) and an output
+folder, calls the library and writes every output file (atomically, through
+:mod:`vesselgp.io`); the command line only parses arguments and prints.
+
+* :func:`run_fit`: generalized cylinder (Eq. 1-5) of a mesh file: ``axis.json``, ``axis.csv``,
+  ``axis.vtp``/``.ply``, a shaded mesh;
+* :func:`run_torsion`: material torsion (Eq. 6-8) of a rest/deformed pair;
+* :func:`run_join`: minimum-torsion join (Section 2.3) with the figures of paper Figs. 2-4;
+* :func:`run_demo`: both of the paper's joining cases (Section 3) on generated data;
+* :func:`run_clean`, :func:`run_generate`, :func:`run_paper_cases`.
+
+Angles are radians in the API and degrees in reports and figures.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import os
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from . import tolerances as tol
+from .deform import Frame
+from .errors import MismatchError, VesselError
+from .fit import fit_generalized_cylinder
+from .io import (read_case, read_mesh, to_json, write_case, write_csv, write_json, write_mesh,
+                 write_polyline)
+from .join import JoinProblem, minimize_torsion, stitch
+from .mesh import clean_mesh, mesh_scale
+from .synthetic import deform_synthetic, paper_case, synthetic_vessel
+from .torsion import TorsionMeter
+from .viz import plot_energy_curve, plot_torsion_profile, render_mesh, torsion_colors
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "OutputFolder", "REPORT_FIELDS", "gc_to_dict", "profile_to_dict", "summary_table", "join_inputs",
+    "run_fit", "run_torsion", "run_join", "run_demo", "run_clean", "run_generate", "run_paper_cases",
+]
+
+#: Fields of each case in ``report.json`` (and of ``result.json`` of ``vesselgp join``).
+REPORT_FIELDS = {
+    "name": "case name",
+    "n_vertices": "vertices of the deformed vessel",
+    "n_faces": "faces of the deformed vessel",
+    "optimum_angle_deg": "rotation of the joined end with the least torsion (degrees; 0 = given anchor)",
+    "energy": "torsion energy at the optimum (paper Eq. 8, radians^2 per unit normalised length)",
+    "total_twist_deg": "alpha(1) - alpha(0) at the optimum (degrees, Eq. 7)",
+    "zero_twist_angle_deg": "the deformation's own zero-twist angle (degrees), the search's start",
+    "n_evals": "energy evaluations of the search (probes + NLopt)",
+    "status": "NLopt result name",
+    "grid_scan": "true when the search started from a full-turn grid scan (energy not convex near zero twist)",
+    "setup_time_s": "generalized-cylinder fit and factorisations (seconds)",
+    "time_s": "minimum-torsion search (seconds)",
+    "large_torsion": "the configuration rotated DEMO_LARGE_TORSION_DEG from the optimum: angle_deg, energy, total_twist_deg",
+    "energy_curve": "angles_deg and energies of paper Fig. 4",
+    "evaluations": "angles_deg and energies the search evaluated",
+    "files": "files written for this case, relative to the output folder",
+}
+
+
+# ----------------------------------------------------------------------------- output folder
+
+
+class OutputFolder:
+    """An output folder that must be new or empty (unless ``overwrite``) and never holds an input.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+    inputs : sequence of path, optional
+        Files that must never be written over.
+    overwrite : bool
+
+    Attributes
+    ----------
+    dir : pathlib.Path
+    files : list of str
+        Every path handed out by calling the folder (the files written).
+
+    Raises
+    ------
+    VesselError
+        The folder is a file, is not empty (without ``overwrite``) or is an input.
+    """
+
+    def __init__(self, folder, inputs=(), overwrite=False):
+        self.dir = Path(folder)
+        self.inputs = [Path(p) for p in inputs if p is not None]
+        if self.dir.exists() and not self.dir.is_dir():
+            raise VesselError(f"output {self.dir} exists and is not a folder; choose another -o")
+        if self.dir.is_dir() and any(self.dir.iterdir()) and not overwrite:
+            raise VesselError(f"output folder {self.dir} exists and is not empty; pass --overwrite or choose another -o")
+        for p in self.inputs:
+            if p.exists() and p.resolve() == self.dir.resolve():
+                raise VesselError(f"output folder {self.dir} is an input; choose another -o")
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.files = []
+
+    def check(self, names):
+        """Refuse, before anything is written, names that are inputs."""
+        for name in names:
+            self._path(name)
+
+    def _path(self, name):
+        p = self.dir / name
+        for q in self.inputs:
+            if p.resolve() == q.resolve() or (p.exists() and q.exists() and os.path.samefile(p, q)):
+                raise VesselError(f"refusing to overwrite input file {q}; choose another -o")
+        return p
+
+    def __call__(self, name):
+        """Path of ``name`` in the folder (created on first use), recorded in :attr:`files`."""
+        p = self._path(name)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        self.files.append(str(p))
+        return p
+
+
+# ----------------------------------------------------------------------------- library results as dicts
+
+
+def gc_to_dict(gc, units="mesh units"):
+    """JSON-ready description of a :class:`vesselgp.GeneralizedCylinder` (``axis.json`` of ``vesselgp fit``)."""
+    return {
+        "units": units,
+        "length": gc.length,
+        "mean_radius": gc.mean_radius,
+        "n_nodes": len(gc.s),
+        "iterations": gc.iterations,
+        "converged": gc.converged,
+        "lam": gc.lam,
+        "mu": gc.mu,
+        "ends": list(gc.ends),
+        "s": gc.s,
+        "centers": gc.centers,
+        "radii": gc.radii,
+        "frames": {"T": gc.frames[:, 0], "U": gc.frames[:, 1], "V": gc.frames[:, 2]},
+        "n_vertices": len(gc.vertex_s),
+        "vertices_used": int(np.count_nonzero(gc.vertex_weight > 0)),
+    }
+
+
+def profile_to_dict(prof):
+    """JSON-ready :class:`vesselgp.TorsionProfile` (degrees; Frenet torsion None where undefined)."""
+    return {
+        "energy": prof.energy,
+        "total_twist_deg": math.degrees(prof.total_twist),
+        "twist_per_length_deg": math.degrees(prof.twist_per_length),
+        "length": prof.length,
+        "s": prof.s,
+        "alpha_deg": np.degrees(prof.alpha),
+        "dalpha_deg": np.degrees(prof.dalpha),
+        "curvature": prof.curvature,
+        "frenet_torsion": np.where(prof.frenet_defined, prof.frenet_torsion, np.nan),
+    }
+
+
+def summary_table(cases):
+    """Plain-text table (case, optimum angle, energy, evaluations, time) of demo/join results.
+
+    Examples
+    --------
+    >>> print(summary_table([{"name": "case 1", "optimum_angle_deg": -179.8, "energy": 4.6e-7,
+    ...                       "n_evals": 9, "setup_time_s": 0.2, "time_s": 0.7}]))
+    case     angle (deg)     energy  evals  setup (s)  search (s)
+    case 1        -179.8    4.6e-07      9       0.20        0.70
+    """
+    rows = ["{:<8} {:>11} {:>10} {:>6} {:>10} {:>11}".format(
+        "case", "angle (deg)", "energy", "evals", "setup (s)", "search (s)")]
+    for c in cases:
+        rows.append("{:<8} {:>11.1f} {:>10.3g} {:>6d} {:>10.2f} {:>11.2f}".format(
+            str(c["name"])[:8], c["optimum_angle_deg"], c["energy"], int(c["n_evals"]),
+            c["setup_time_s"], c["time_s"]))
+    return "\n".join(rows)
+
+
+def _progress_iter(progress, it, desc):
+    if progress is None or progress is False:
+        return it
+    if progress is True:
+        from tqdm.auto import tqdm
+
+        return tqdm(it, desc=desc, leave=False)
+    return progress(it, desc=desc)
+
+
+# ----------------------------------------------------------------------------- fit, torsion
+
+
+def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="theta", units="mesh units",
+            render=True):
+    """Fit a generalized cylinder to a mesh file and write ``axis.*`` and the shaded mesh into ``out``.
+
+    Parameters
+    ----------
+    mesh : str or os.PathLike
+    out : OutputFolder
+    ends : (int, int), optional
+    n_nodes : int, optional
+    axis_format : {"vtp", "ply", "both"}
+    shade : {"theta", "radius", "none"}
+    units : str
+    render : bool
+
+    Returns
+    -------
+    (GeneralizedCylinder, dict)
+        The fit and the contents of ``axis.json``.
+    """
+    V, F = read_mesh(mesh)
+    t0 = time.perf_counter()
+    gc = fit_generalized_cylinder(V, F, ends=ends, n_nodes=n_nodes)
+    dt = time.perf_counter() - t0
+    d = gc_to_dict(gc, units=units)
+    d.update(bbox_diagonal=float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), input=str(mesh), time_s=dt)
+    write_json(out("axis.json"), d)
+    fr = gc.frames
+    cols = {"s": gc.s, "arclength": gc.s * gc.length}
+    cols.update({c: gc.centers[:, i] for i, c in enumerate("xyz")})
+    cols["radius"] = gc.radii
+    cols.update({f"{n}{c}": fr[:, k, i] for k, n in enumerate("TUV") for i, c in enumerate("xyz")})
+    write_csv(out("axis.csv"), cols)
+    pdata = {"s": gc.s, "radius": gc.radii, "T": fr[:, 0], "U": fr[:, 1], "V": fr[:, 2]}
+    for ext in (("vtp", "ply") if axis_format == "both" else (axis_format,)):
+        write_polyline(out(f"axis.{ext}"), gc.centers, pdata)
+    if shade != "none":
+        if shade == "theta":
+            val, lo, hi, cmap = np.degrees(gc.vertex_theta), -180.0, 180.0, "twilight"
+            label = "angle \u03b8 about the axis (deg)"
+        else:
+            val = np.hypot(gc.vertex_local[:, 1], gc.vertex_local[:, 2])
+            lo, hi, cmap, label = float(val.min()), float(val.max()), "viridis", f"distance to the axis ({units})"
+        write_mesh(out(f"mesh_{shade}.ply"), V, F, vertex_colors=torsion_colors(val, lo, hi, cmap),
+                   vertex_scalars={shade: val, "s": gc.vertex_s})
+        if render:
+            render_mesh(out(f"mesh_{shade}.png"), V, F, val, vmin=lo, vmax=hi, cmap=cmap, cbar_label=label,
+                        title=f"{Path(mesh).name}: generalized cylinder, length {gc.length:.4g}, "
+                              f"mean radius {gc.mean_radius:.3g}")
+    return gc, d
+
+
+def run_torsion(rest, deformed, out, *, smoothing=None, render=True):
+    """Material torsion of a deformed mesh file against its rest mesh file; writes ``profile.*`` and a shaded mesh.
+
+    Returns
+    -------
+    (TorsionProfile, dict)
+        The profile and the contents of ``profile.json``.
+
+    Raises
+    ------
+    MismatchError
+        When the two meshes do not share vertices and faces.
+    """
+    V0, F0 = read_mesh(rest)
+    V1, F1 = read_mesh(deformed)
+    if V0.shape != V1.shape or F0.shape != F1.shape or not np.array_equal(F0, F1):
+        raise MismatchError(f"rest ({len(V0)} vertices, {len(F0)} faces) and deformed ({len(V1)} vertices, "
+                            f"{len(F1)} faces) meshes must share vertices and faces")
+    t0 = time.perf_counter()
+    prof = TorsionMeter(V0, F0, fit_generalized_cylinder(V0, F0), smoothing=smoothing)(V1)
+    dt = time.perf_counter() - t0
+    d = {"command": "torsion", "rest": str(rest), "deformed": str(deformed), "time_s": dt, **profile_to_dict(prof)}
+    write_json(out("profile.json"), d)
+    write_csv(out("profile.csv"), {k: d[k] for k in ("s", "alpha_deg", "dalpha_deg", "curvature", "frenet_torsion")})
+    al = np.degrees(prof.vertex_alpha)
+    write_mesh(out("deformed_twist.ply"), V1, F1, vertex_colors=torsion_colors(al), vertex_scalars={"alpha_deg": al})
+    if render:
+        render_mesh(out("deformed_twist.png"), V1, F1, al,
+                    title=f"twist {np.degrees(prof.total_twist):.1f}\u00b0, E = {prof.energy:.3g} (Eq. 8)")
+        plot_torsion_profile(out("profile.png"), prof)
+    return prof, d
+
+
+# ----------------------------------------------------------------------------- one join
+
+
+#: Files :func:`run_join` may write (checked against the inputs before anything is written).
+JOIN_FILES = ("optimum.ply", "large_torsion.ply", "energy_curve.csv", "result.json", "joined_optimum.ply",
+              "optimum.png", "large_torsion.png", "energy_curve.png", "profile_optimum.png",
+              "profile_large_torsion.png")
+
+
+def join_inputs(vessel, *, case=None, fixed=None, moving=None, target=None, other=None, other_end=None):
+    """Read what a join needs: the vessel, held and moving ids, target, and the other vessel.
+
+    Either ``case`` (a ``case.json``, which also names the other vessel's file)
+    or all of ``fixed``, ``moving`` and ``target`` must be given; ``other`` and
+    ``other_end`` override the case's.
+
+    Returns
+    -------
+    dict
+        ``V, F, fixed, moving, target, other`` (``(V2, F2, other_end)`` or None) and ``inputs``
+        (every file read).
+    """
+    V, F = read_mesh(vessel)
+    inputs = [vessel, case, other]
+    case_other_end = None
+    if case is not None:
+        fixed, moving, target, case_other_end, case_other = read_case(case, len(V))
+        if other is None and case_other is not None:
+            log.info("the vessel joined to is %s (named by %s)", case_other, case)
+            other = case_other
+            inputs.append(other)
+    elif fixed is None or moving is None or target is None:
+        raise VesselError("give a case file or all of the held ids, the moving ids and the target frame")
+    other_end = case_other_end if other_end is None else other_end
+    o = None
+    if other is not None:
+        Vo, Fo = read_mesh(other)
+        o = (Vo, Fo, other_end)
+    return {"V": V, "F": F, "fixed": fixed, "moving": moving, "target": target, "other": o, "inputs": inputs}
+
+
+def _join_search(V, F, fixed, moving, target, method, ends, n_curve, curve_range_deg, progress, name):
+    """Fit, problem set-up, :func:`minimize_torsion` and the energy curve about the optimum (Fig. 4)."""
+    t0 = time.perf_counter()
+    gc = fit_generalized_cylinder(V, F, ends=ends)
+    problem = JoinProblem(V, F, fixed, moving, target, method=method, gc=gc)
+    t1 = time.perf_counter()
+    res = minimize_torsion(problem)
+    t2 = time.perf_counter()
+    half = math.radians(curve_range_deg)
+    angles = res.angle + np.linspace(-half, half, int(n_curve))
+    energies = np.array([problem.energy(a) for a in _progress_iter(progress, angles, f"{name}: energy curve")])
+    times = {"setup_time_s": t1 - t0, "time_s": t2 - t1, "curve_time_s": time.perf_counter() - t2}
+    return problem, res, angles, energies, times
+
+
+def _twist_relative_to_held(prof, fixed):
+    """Vertex twist in degrees relative to the held part (alpha(0) = 0 at s = 0 may be the moving end)."""
+    return np.degrees(prof.vertex_alpha - np.median(prof.vertex_alpha[fixed]))
+
+
+def _write_join_states(out, F, states, m, others, name, large_deg, prefix, render):
+    """Shaded meshes, renders and profiles of the optimum and the large-torsion state."""
+    files = {}
+    label = "material twist \u03b1 (deg)"
+    for key, X, al, prof, ang in states:
+        write_mesh(out / f"{key}.ply", X, F, vertex_colors=torsion_colors(al, -m, m),
+                   vertex_scalars={"alpha_deg": al})
+        files[f"{key}_mesh"] = prefix + f"{key}.ply"
+        if render:
+            what = "minimum torsion" if key == "optimum" else f"large torsion (optimum {large_deg:+.0f}\u00b0)"
+            render_mesh(out / f"{key}.png", X, F, al, vmin=-m, vmax=m, others=others, cbar_label=label,
+                        title=f"{name}: {what}, end rotation {math.degrees(ang):.1f}\u00b0, "
+                              f"E = {prof.energy:.3g}")
+            plot_torsion_profile(out / f"profile_{key}.png", prof)
+            files[f"{key}_png"] = prefix + f"{key}.png"
+            files[f"profile_{key}_png"] = prefix + f"profile_{key}.png"
+    return files
+
+
+def _write_joined(out, res_V, F, moving, other, al_opt, m, prefix):
+    """The optimum stitched to the other vessel's end ring, coloured (the other vessel in grey)."""
+    Vj, Fj = stitch(res_V, F, moving, other[0], other[1], other[2])
+    cj = np.full((len(Vj), 3), np.round(np.array(tol.VIZ_OTHER_GREY) * 255), dtype=np.uint8)
+    cj[: len(res_V)] = torsion_colors(al_opt, -m, m)
+    aj = np.zeros(len(Vj))
+    aj[: len(res_V)] = al_opt
+    write_mesh(out / "joined_optimum.ply", Vj, Fj, vertex_colors=cj, vertex_scalars={"alpha_deg": aj})
+    return {"joined_mesh": prefix + "joined_optimum.ply"}
+
+
+def run_join(outdir, V, F, fixed, moving, target, *, other=None, name="join", n_curve=None,
+             curve_range_deg=None, large_deg=None, method="rod_arap", ends=None, progress=None, prefix="",
+             render=True):
+    """Minimum-torsion join of one vessel end, with the paper's figures (Figs. 2-4).
+
+    Builds a :class:`vesselgp.JoinProblem`, runs :func:`vesselgp.minimize_torsion`,
+    evaluates the energy curve about the optimum and writes into ``outdir``:
+
+    * ``optimum.ply`` / ``.png``: the deformed vessel at the optimum, vertex
+      colours from the twist ``alpha`` relative to the held vertices (degrees,
+      also stored as the PLY property ``alpha_deg``); ``large_torsion.ply`` / ``.png``: the same at
+      ``optimum + large_deg`` (paper Figs. 2-3 (e) and (a, c)); both use one
+      colour range;
+    * ``energy_curve.png`` / ``.csv``: Fig. 4;
+    * ``profile_optimum.png``, ``profile_large_torsion.png``: ``alpha(s)`` and ``alpha'(s)``;
+    * ``joined_optimum.ply``: the optimum stitched to ``other`` (if its end ring is given).
+
+    Parameters
+    ----------
+    outdir : str or os.PathLike
+        Existing folder.
+    V : (n, 3) float64
+    F : (m, 3) int64
+    fixed, moving : (p,), (q,) int
+        Held vertices and the joined end ring.
+    target : Frame
+    other : (V2, F2, loop_ids) or (V2, F2), optional
+        The vessel joined to: drawn grey in the renders, stitched when its end ring is given.
+    name : str
+    n_curve : int, optional
+        Points of the energy curve (``tolerances.DEMO_CURVE_POINTS``).
+    curve_range_deg : float, optional
+        Half-width of the curve about the optimum (``DEMO_CURVE_RANGE_DEG``).
+    large_deg : float, optional
+        Rotation from the optimum of the "large torsion" configuration (``DEMO_LARGE_TORSION_DEG``).
+    method : str
+        Deformation method (:class:`vesselgp.JoinProblem`).
+    ends : optional
+        Ends for the rest fit (default: found by :func:`vesselgp.vessel_ends`).
+    progress : None, bool or callable
+        Progress bar over the energy curve: True for tqdm, or a ``tqdm``-like callable.
+    prefix : str
+        Prepended to the file names listed in ``files``.
+    render : bool
+        Write the PNGs.
+
+    Returns
+    -------
+    dict
+        The fields of :data:`REPORT_FIELDS`.
+    """
+    n_curve = tol.DEMO_CURVE_POINTS if n_curve is None else int(n_curve)
+    curve_range_deg = tol.DEMO_CURVE_RANGE_DEG if curve_range_deg is None else float(curve_range_deg)
+    large_deg = tol.DEMO_LARGE_TORSION_DEG if large_deg is None else float(large_deg)
+    out = Path(outdir)
+    problem, res, angles, energies, times = _join_search(V, F, fixed, moving, target, method, ends, n_curve,
+                                                         curve_range_deg, progress, name)
+    t3 = time.perf_counter()
+    a_large = res.angle + math.radians(large_deg)
+    p_large = problem.profile(a_large)
+    al_opt = _twist_relative_to_held(res.profile, problem.fixed)
+    al_large = _twist_relative_to_held(p_large, problem.fixed)
+    m = max(float(np.max(np.abs(al_large))), float(np.max(np.abs(al_opt))), tol.VIZ_MIN_RANGE)
+    others = [] if other is None else [(other[0], other[1])]
+    states = (("optimum", res.V, al_opt, res.profile, res.angle),
+              ("large_torsion", problem.deform(a_large), al_large, p_large, a_large))
+    files = _write_join_states(out, problem.F, states, m, others, name, large_deg, prefix, render)
+    write_csv(out / "energy_curve.csv", {"angle_deg": np.degrees(angles), "energy": energies})
+    files["energy_curve_csv"] = prefix + "energy_curve.csv"
+    if render:
+        plot_energy_curve(out / "energy_curve.png", angles, energies, optimum=(res.angle, res.energy),
+                          evaluated=(res.angles, res.energies), relative_to=res.angle,
+                          title=f"{name}: torsion energy vs end rotation (Fig. 4)")
+        files["energy_curve_png"] = prefix + "energy_curve.png"
+    if other is not None and len(other) > 2 and other[2] is not None:
+        files.update(_write_joined(out, res.V, problem.F, problem.moving, other, al_opt, m, prefix))
+    log.info("%s: optimum %.2f deg, E = %.4g, %d evaluations, %.2f s search", name, math.degrees(res.angle),
+             res.energy, res.n_evals, times["time_s"])
+    return {
+        "name": name, "n_vertices": int(np.shape(V)[0]), "n_faces": len(problem.F),
+        "optimum_angle_deg": math.degrees(res.angle), "energy": res.energy,
+        "total_twist_deg": math.degrees(res.profile.total_twist),
+        "zero_twist_angle_deg": math.degrees(problem.zero_twist_angle), "n_evals": res.n_evals,
+        "status": res.status_name, "grid_scan": res.grid_scan, **times,
+        "output_time_s": time.perf_counter() - t3,
+        "large_torsion": {"angle_deg": math.degrees(a_large), "energy": p_large.energy,
+                          "total_twist_deg": math.degrees(p_large.total_twist)},
+        "energy_curve": {"angles_deg": np.degrees(angles), "energies": energies},
+        "evaluations": {"angles_deg": np.degrees(res.angles), "energies": res.energies},
+        "files": files,
+    }
+
+
+# ----------------------------------------------------------------------------- the demo
+
+
+def run_demo(outdir, *, resolution=1.0, n_curve=None, cases=(1, 2), pre_rotation=0.0, progress=None,
+             render=True):
+    """Run both joining cases of the paper (Section 3) on generated data and write the figures.
+
+    For case ``k`` the folder ``outdir/case<k>`` gets the files of
+    :func:`run_join` plus the case files of :func:`vesselgp.io.write_case`
+    (``vessel.ply``, ``other.ply``, ``case.json``); ``outdir/report.json``
+    collects the results.
+
+    Parameters
+    ----------
+    outdir : str or os.PathLike
+        Output folder (created; existing files of the same names are replaced).
+    resolution : float
+        Mesh resolution multiplier of :func:`vesselgp.synthetic.paper_case`
+        (1.0: about 8k and 14k vertices; 0.3 for quick tests).
+    n_curve : int, optional
+        Points of each energy curve.
+    cases : sequence of {1, 2}
+    pre_rotation : float
+        Error of the given anchor (radians), see :func:`vesselgp.synthetic.paper_case`.
+    progress : None, bool or callable
+        Progress bars (see :func:`run_join`).
+    render : bool
+        Write the PNGs.
+
+    Returns
+    -------
+    dict
+        ``{"version", "resolution", "cases": [...], "total_time_s", "fields"}``,
+        also written to ``outdir/report.json``; each case has the fields of
+        :data:`REPORT_FIELDS` plus ``case`` (1 or 2) and ``generate_time_s``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> rep = run_demo(tempfile.mkdtemp(), resolution=0.25, n_curve=5, cases=(1,), render=False)
+    >>> rep["cases"][0]["n_evals"] > 3, sorted(rep)
+    (True, ['cases', 'fields', 'resolution', 'total_time_s', 'version'])
+    """
+    from . import __version__
+
+    out = Path(outdir)
+    out.mkdir(parents=True, exist_ok=True)
+    T0 = time.perf_counter()
+    results = []
+    for n in cases:
+        t0 = time.perf_counter()
+        case = paper_case(int(n), resolution=resolution, pre_rotation=pre_rotation)
+        tg = time.perf_counter() - t0
+        sub = out / f"case{n}"
+        sub.mkdir(exist_ok=True)
+        write_case(sub, case, resolution)
+        target = Frame(case.target_origin, case.target_tangent, case.target_normal)
+        r = run_join(sub, case.V, case.F, case.fixed, case.moving, target,
+                     other=(case.other_V, case.other_F, case.other_end), name=f"case {n}",
+                     n_curve=n_curve, progress=progress, prefix=f"case{n}/", render=render)
+        r["files"].update({"vessel": f"case{n}/vessel.ply", "other": f"case{n}/other.ply",
+                           "case_json": f"case{n}/case.json"})
+        r = {"case": int(n), "title": case.name, **r, "generate_time_s": tg}
+        write_json(sub / "result.json", r)
+        results.append(r)
+    report = {"version": __version__, "resolution": float(resolution), "cases": results,
+              "total_time_s": time.perf_counter() - T0, "fields": REPORT_FIELDS}
+    write_json(out / "report.json", report)
+    return report
+
+
+# ----------------------------------------------------------------------------- clean, generate
+
+
+def run_clean(mesh, out, *, fmt="ply"):
+    """Repair a mesh file (:func:`vesselgp.clean_mesh`); writes ``<name>_clean.<fmt>`` and ``clean_report.json``.
+
+    Returns
+    -------
+    (CleanReport, dict)
+    """
+    V, F = read_mesh(mesh)
+    V2, F2, rep = clean_mesh(V, F)
+    write_mesh(out(f"{Path(mesh).stem}_clean.{fmt}"), V2, F2)
+    d = {k: v for k, v in asdict(rep).items() if k != "vertex_map"}
+    d["summary"] = rep.summary()
+    d["input"] = str(mesh)
+    sc = mesh_scale(V2, F2)
+    d["scale"] = {"median_edge": sc.median_edge, "bbox_diagonal": sc.bbox_diagonal,
+                  "units_guess": sc.units_guess, "warning": sc.warning}
+    write_json(out("clean_report.json"), d)
+    return rep, d
+
+
+def run_paper_cases(out, *, resolution=1.0, seed=0, noise=0.0, pre_rotation=0.0):
+    """Write the paper's two joining cases into ``out/case1``, ``out/case2`` (:func:`vesselgp.io.write_case`).
+
+    Returns
+    -------
+    list of dict
+        ``case, name, n_vertices, other_n_vertices`` per case.
+    """
+    info = []
+    for n in (1, 2):
+        c = paper_case(n, resolution=resolution, seed=seed, noise=noise, pre_rotation=pre_rotation)
+        for f in ("vessel.ply", "other.ply", "case.json"):
+            out(f"case{n}/{f}")
+        write_case(out.dir / f"case{n}", c, resolution)
+        info.append({"case": n, "name": c.name, "n_vertices": len(c.V), "other_n_vertices": len(c.other_V)})
+    return info
+
+
+def run_generate(out, curve="arc", *, radius=1.5, twist_deg=None, ends="open", n_around=48, remesh=True,
+                 noise=0.0, seed=0, ellipticity=1.0, deformed_curve=None, deformed_twist_deg=None, fmt="ply"):
+    """A synthetic vessel (``vessel.<fmt>``, ``truth.json``) and optionally its deformation (``deformed.<fmt>``).
+
+    Returns
+    -------
+    dict
+        Summary: curve, vertex count, length, deformed twist.
+    """
+    twist = None if twist_deg is None else math.radians(twist_deg)
+    v = synthetic_vessel(curve, radius=radius, twist=twist, ends=ends, n_around=n_around, remesh=remesh,
+                         noise=noise, seed=seed, ellipticity=ellipticity)
+    write_mesh(out(f"vessel.{fmt}"), v.V, v.F)
+    t = v.truth
+    truth = {"name": t.name, "units": t.units, "length": t.length, "s": t.s[::10], "centers": t.centers[::10],
+             "radii": t.radii[::10], "alpha_deg": np.degrees(t.alpha[::10]), "n_vertices": len(v.V),
+             "n_faces": len(v.F), "radius": radius, "twist_deg": twist_deg, "ends": ends}
+    summary = {"command": "generate", "curve": t.name, "n_vertices": len(v.V), "length": t.length,
+               "units": t.units}
+    if deformed_curve is not None or deformed_twist_deg is not None:
+        dtw = None if deformed_twist_deg is None else math.radians(deformed_twist_deg)
+        write_mesh(out(f"deformed.{fmt}"), deform_synthetic(v, deformed_curve, twist=dtw), v.F)
+        truth["deformed"] = {"curve": deformed_curve, "twist_deg": deformed_twist_deg}
+        summary["deformed_twist_deg"] = deformed_twist_deg
+    write_json(out("truth.json"), truth)
+    return to_json(summary)
