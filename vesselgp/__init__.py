@@ -24,4 +24,4 @@ from . import synthetic  # noqa: F401
 
 _logging.getLogger(__name__).addHandler(_logging.NullHandler())
 
-__version__ = "0.1.0"
+from ._version import __version__  # noqa: E402,F401

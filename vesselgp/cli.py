@@ -238,7 +238,7 @@ def _common(p, default_out):
 
 def build_parser():
     """The ``argparse`` parser of the ``vesselgp`` command."""
-    from . import __version__
+    from ._version import __version__
 
     fmt = argparse.RawDescriptionHelpFormatter
     ap = argparse.ArgumentParser(

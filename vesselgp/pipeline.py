@@ -505,7 +505,7 @@ def run_demo(outdir, *, resolution=1.0, n_curve=None, cases=(1, 2), pre_rotation
     >>> rep["cases"][0]["n_evals"] > 3, sorted(rep)
     (True, ['cases', 'fields', 'resolution', 'total_time_s', 'version'])
     """
-    from . import __version__
+    from ._version import __version__
 
     out = Path(outdir)
     out.mkdir(parents=True, exist_ok=True)
