@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import base64
+import xml.etree.ElementTree as ET
 import os
 import re
 import struct
@@ -13,8 +14,8 @@ import pytest
 
 import vesselgp.io.meshfile as meshfile_mod
 import vesselgp.io.vtp as vtp_mod
-from vesselgp.errors import InvalidMeshError, MeshReadError, MeshWriteError
-from vesselgp.io import read_mesh, write_mesh
+from vesselgp.errors import InvalidMeshError, MeshReadError, MeshWriteError, VesselError
+from vesselgp.io import read_mesh, write_mesh, write_polyline
 from _data import REAL
 
 
@@ -451,3 +452,25 @@ def test_atomic_write_leaves_the_umask_alone(tmp_path, monkeypatch):
         assert os.stat(tmp_path / "b.ply").st_mode & 0o777 == 0o600
     finally:
         os.umask(mask)
+
+
+def test_write_polyline_vtp_and_ply(tmp_path):
+    P = np.c_[np.linspace(0, 1, 5), np.zeros(5), np.zeros(5)]
+    data = {"radius": np.full(5, 2.0), "T": np.tile([1.0, 0, 0], (5, 1))}
+    write_polyline(tmp_path / "a.vtp", P, data)
+    root = ET.parse(tmp_path / "a.vtp").getroot()
+    piece = root.find("PolyData/Piece")
+    assert piece.get("NumberOfPoints") == "5" and piece.get("NumberOfLines") == "1"
+    conn = piece.find("Lines/DataArray[@Name='connectivity']").text.split()
+    assert conn == ["0", "1", "2", "3", "4"]
+    names = [d.get("Name") for d in piece.find("PointData")]
+    assert names == ["radius", "T"]
+    write_polyline(tmp_path / "a.ply", P, data)
+    txt = (tmp_path / "a.ply").read_text().splitlines()
+    assert "element vertex 5" in txt and "element edge 4" in txt and "property double radius" in txt
+    body = txt[txt.index("end_header") + 1:]
+    assert len(body) == 9 and body[-1] == "3 4"
+    with pytest.raises(MeshWriteError):
+        write_polyline(tmp_path / "a.obj", P)
+    with pytest.raises(VesselError):
+        write_polyline(tmp_path / "b.vtp", P, {"bad": np.zeros(4)})

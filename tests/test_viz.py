@@ -1,20 +1,25 @@
-"""Tests of vesselgp.viz: colours, renders, plots, atomic writes, polylines (issue #6)."""
+"""Tests of vesselgp.viz: colours, renders, plots, atomic writes, polylines (issues #6, #12)."""
 import os
-import xml.etree.ElementTree as ET
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from vesselgp.errors import MeshWriteError, VesselError
+from vesselgp import tolerances as tol
+from vesselgp import viz
+from vesselgp.errors import MeshWriteError, OptionError, VesselError
+from vesselgp.io import atomic_write
 from vesselgp.synthetic import synthetic_vessel
+from vesselgp.errors import DecimationError
 from vesselgp.viz import (
-    atomic_write,
     plot_energy_curve,
     plot_torsion_profile,
     render_mesh,
     torsion_colors,
     view_basis,
-    write_polyline,
 )
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -108,6 +113,143 @@ def test_plot_energy_curve_and_profile(tmp_path):
     assert_png(plot_torsion_profile(tmp_path / "prof.png", prof), (500, 300))
 
 
+ROOT = Path(__file__).resolve().parents[1]
+
+# Runs in a fresh interpreter whose backend is not Agg (like a Jupyter kernel's inline
+# backend): every figure function is used, then the global matplotlib state is compared.
+_GLOBAL_STATE_SCRIPT = textwrap.dedent("""
+    import sys
+    import matplotlib
+    matplotlib.use("svg")
+    before = matplotlib.rcParams.copy()
+    import numpy as np
+    from vesselgp.synthetic import deform_synthetic, synthetic_vessel
+    from vesselgp.torsion import measure_torsion
+    from vesselgp.viz import plot_energy_curve, plot_torsion_profile, render_mesh, torsion_colors
+
+    out = sys.argv[1]
+    ves = synthetic_vessel("straight", radius=1.5, n_around=12, remesh=False)
+    prof = measure_torsion(ves.V, deform_synthetic(ves, twist=1.0), ves.F)
+    torsion_colors(np.degrees(prof.vertex_alpha))
+    render_mesh(out + "/m.png", ves.V, ves.F, np.degrees(prof.vertex_alpha), title="t")
+    render_mesh(out + "/d.png", ves.V, ves.F, None, max_faces=100)
+    a = np.linspace(-3, 3, 9)
+    plot_energy_curve(out + "/e.png", a, a ** 2, optimum=(0.0, 0.0), title="e")
+    plot_torsion_profile(out + "/p.png", prof)
+    changed = sorted(k for k in before if matplotlib.rcParams[k] != before[k])
+    print("backend", matplotlib.get_backend())
+    print("changed", changed)
+    print("pyplot", "matplotlib.pyplot" in sys.modules)
+""")
+
+
+def test_figures_leave_global_matplotlib_state_alone(tmp_path):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    env.pop("MPLBACKEND", None)
+    r = subprocess.run([sys.executable, "-c", _GLOBAL_STATE_SCRIPT, str(tmp_path)], cwd=ROOT, env=env,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert "backend svg" in lines  # not switched to Agg
+    assert "changed []" in lines  # no rcParams touched
+    assert "pyplot False" in lines  # pyplot never imported
+    for name in ("m", "d", "e", "p"):
+        assert_png(tmp_path / f"{name}.png")
+
+
+def _rc_snapshot():
+    """rcParams without "backend" (reading an unresolved backend would resolve it)."""
+    import matplotlib
+
+    return {k: matplotlib.rcParams[k] for k in matplotlib.rcParams if k != "backend"}
+
+
+def test_figures_keep_rcparams_in_process(tmp_path, arc):
+    had_pyplot = "matplotlib.pyplot" in sys.modules
+    before = _rc_snapshot()
+    torsion_colors([-1.0, 2.0])
+    render_mesh(tmp_path / "a.png", arc.V, arc.F, arc.V[:, 0], max_faces=300)
+    plot_energy_curve(tmp_path / "e.png", [0.0, 1.0, 2.0], [1.0, 0.0, 1.0])
+    assert _rc_snapshot() == before
+    assert ("matplotlib.pyplot" in sys.modules) == had_pyplot
+
+
+def test_render_mesh_above_viz_max_faces_keeps_scalars(tmp_path, monkeypatch):
+    ves = synthetic_vessel("arc", radius=1.5, n_around=96, remesh=False)
+    assert len(ves.F) > 2 * tol.VIZ_MAX_FACES
+    a = np.array([0.7, 0.2, -0.3])
+    S = ves.V @ a + 2.0  # linear field: exact value known at any point
+    seen = []
+
+    def spy(V, F, scalars, max_faces):
+        out = real(V, F, scalars, max_faces)
+        seen.append(out)
+        return out
+
+    real = viz._decimate
+    monkeypatch.setattr(viz, "_decimate", spy)
+    assert_png(render_mesh(tmp_path / "big.png", ves.V, ves.F, S), (300, 150))
+    (V2, F2, S2), = seen
+    assert len(F2) <= tol.VIZ_MAX_FACES and S2.shape == (len(V2),)
+    err = np.abs(S2 - (V2 @ a + 2.0))
+    # interpolated at the closest original surface point: far below one edge times the gradient
+    assert err.max() < 1e-4 * np.ptp(S)
+
+
+def test_decimate_scalars_none_and_nan(arc):
+    V2, F2, S2 = viz._decimate(arc.V, arc.F, None, 300)
+    assert S2 is None and 0 < len(F2) <= 300 and F2.max() < len(V2)
+    S = arc.V[:, 2].copy()
+    S[0] = np.nan
+    V2, F2, S2 = viz._decimate(arc.V, arc.F, S, 300)
+    assert np.count_nonzero(np.isfinite(S2)) > 0.9 * len(V2)  # NaN stays local
+
+
+def _raise_pymeshlab(*args, **kwargs):
+    import pymeshlab
+
+    raise pymeshlab.PyMeshLabException("Failed to apply filter: simulated failure")
+
+
+@pytest.mark.parametrize("filter_name", ["meshing_decimation_quadric_edge_collapse",
+                                         "transfer_attributes_per_vertex"])
+def test_decimation_failure_raises_instead_of_drawing(tmp_path, arc, monkeypatch, filter_name):
+    import pymeshlab
+
+    monkeypatch.setattr(pymeshlab.MeshSet, filter_name, _raise_pymeshlab)
+    p = tmp_path / "x.png"
+    with pytest.raises(DecimationError, match="simulated failure.*max_faces >= ") as info:
+        render_mesh(p, arc.V, arc.F, arc.V[:, 0], max_faces=200)
+    assert isinstance(info.value, VesselError) and "\n" not in str(info.value)
+    assert not p.exists() and not list(tmp_path.iterdir())  # nothing drawn, nothing left behind
+    render_mesh(p, arc.V, arc.F, arc.V[:, 0], max_faces=len(arc.F))  # undecimated still draws
+    assert_png(p)
+
+
+def test_decimation_leaving_no_face_raises(tmp_path, arc, monkeypatch):
+    import pymeshlab
+
+    def wipe(self, **kwargs):
+        self.set_selection_all()
+        self.meshing_remove_selected_vertices_and_faces()
+
+    monkeypatch.setattr(pymeshlab.MeshSet, "meshing_decimation_quadric_edge_collapse", wipe)
+    with pytest.raises(DecimationError, match="left no face"):
+        render_mesh(tmp_path / "x.png", arc.V, arc.F, None, max_faces=200)
+    assert not list(tmp_path.iterdir())
+
+
+def test_bad_cmap_and_max_faces_are_option_errors(tmp_path, arc):
+    with pytest.raises(OptionError, match="colormap"):
+        torsion_colors([0.0, 1.0], cmap="no-such-map")
+    with pytest.raises(OptionError, match="colormap"):
+        render_mesh(tmp_path / "a.png", arc.V, arc.F, arc.V[:, 0], cmap="no-such-map")
+    for bad in (0, -5, 2.5, "many"):
+        with pytest.raises(OptionError, match="max_faces"):
+            render_mesh(tmp_path / "a.png", arc.V, arc.F, max_faces=bad)
+    assert not list(tmp_path.iterdir())
+
+
 def test_atomic_write_keeps_old_file_on_failure(tmp_path):
     p = tmp_path / "x.txt"
     atomic_write(p, lambda fh: fh.write("old"))
@@ -122,25 +264,3 @@ def test_atomic_write_keeps_old_file_on_failure(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["x.txt"]
     with pytest.raises(MeshWriteError):
         atomic_write(tmp_path / "missing" / "y.txt", lambda fh: fh.write("y"))
-
-
-def test_write_polyline_vtp_and_ply(tmp_path):
-    P = np.c_[np.linspace(0, 1, 5), np.zeros(5), np.zeros(5)]
-    data = {"radius": np.full(5, 2.0), "T": np.tile([1.0, 0, 0], (5, 1))}
-    write_polyline(tmp_path / "a.vtp", P, data)
-    root = ET.parse(tmp_path / "a.vtp").getroot()
-    piece = root.find("PolyData/Piece")
-    assert piece.get("NumberOfPoints") == "5" and piece.get("NumberOfLines") == "1"
-    conn = piece.find("Lines/DataArray[@Name='connectivity']").text.split()
-    assert conn == ["0", "1", "2", "3", "4"]
-    names = [d.get("Name") for d in piece.find("PointData")]
-    assert names == ["radius", "T"]
-    write_polyline(tmp_path / "a.ply", P, data)
-    txt = (tmp_path / "a.ply").read_text().splitlines()
-    assert "element vertex 5" in txt and "element edge 4" in txt and "property double radius" in txt
-    body = txt[txt.index("end_header") + 1:]
-    assert len(body) == 9 and body[-1] == "3 4"
-    with pytest.raises(MeshWriteError):
-        write_polyline(tmp_path / "a.obj", P)
-    with pytest.raises(VesselError):
-        write_polyline(tmp_path / "b.vtp", P, {"bad": np.zeros(4)})

@@ -115,8 +115,8 @@ class Frame:
 
     def __post_init__(self):
         o = as_vector(self.origin, "origin")
-        t = unit(self.tangent, "tangent")
-        n = unit(self.normal, "normal")
+        t = unit(self.tangent, "tangent", "the direction of the vessel axis at the join")
+        n = unit(self.normal, "normal", "a direction across the axis")
         n = n - (n @ t) * t
         nn = float(np.linalg.norm(n))
         if nn < tol.FRAME_ORTHONORMAL:
@@ -254,7 +254,7 @@ class RodDeformer:
         if method not in METHODS:
             raise OptionError(f"unknown deformation method {method!r}; use one of {', '.join(METHODS)}")
         if stiffness not in STIFFNESS:
-            raise OptionError(f"unknown stiffness {stiffness!r}; use one of {', '.join(STIFFNESS)}")
+            raise OptionError(f"unknown stiffness {stiffness!r}; use {' or '.join(map(repr, STIFFNESS))}")
         fixed = as_vertex_ids(fixed, n, "fixed")
         moving = as_vertex_ids(moving, n, "moving")
         both = np.intersect1d(fixed, moving)

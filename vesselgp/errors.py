@@ -42,6 +42,10 @@ class OptimizationError(VesselError):
     """The minimum-torsion search failed (NLopt error or non-finite energies)."""
 
 
+class DecimationError(VesselError):
+    """pymeshlab could not decimate a mesh for rendering (:func:`render_mesh`)."""
+
+
 class OptionError(VesselError):
     """A keyword option has a value the function does not know (e.g. a method name)."""
 
@@ -57,4 +61,5 @@ __all__ = [
     "FrameError",
     "OptimizationError",
     "OptionError",
+    "DecimationError",
 ]

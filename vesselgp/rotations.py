@@ -13,13 +13,14 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from . import tolerances as tol
+from ._validate import as_vector
 from .errors import FrameError
 
 __all__ = ["unit", "unit_rows", "perpendicular", "rotate", "minimal_rotation", "rotation_matrix",
            "wrap_angle"]
 
 
-def unit(v, name="vector"):
+def unit(v, name="vector", what="a non-zero direction"):
     """``v / |v|`` for a non-zero 3-vector of any length (no unit-dependent threshold).
 
     Parameters
@@ -27,23 +28,23 @@ def unit(v, name="vector"):
     v : (3,) float64
     name : str
         Used in the error message.
+    what : str
+        What to give instead of a zero vector (the message's remedy).
 
     Raises
     ------
     FrameError
-        Zero or non-finite vector.
+        Not a finite 3-vector, or the zero vector.
 
     Examples
     --------
     >>> unit([0, 3e-300, 4e-300]).tolist()
     [0.0, 0.6, 0.8]
     """
-    a = np.asarray(v, dtype=np.float64).reshape(-1)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise FrameError(f"{name} must be a finite 3-vector, got {np.shape(v)}")
+    a = as_vector(v, name)
     m = float(np.abs(a).max())
     if not m > 0:
-        raise FrameError(f"{name} is the zero vector; give a non-zero direction")
+        raise FrameError(f"{name} is the zero vector; give {what}")
     a = a / m  # scale first: no overflow or underflow for any non-zero length
     return a / np.linalg.norm(a)
 

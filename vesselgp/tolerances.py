@@ -174,6 +174,9 @@ VIZ_AMBIENT = 0.35
 VIZ_OTHER_GREY = (0.78, 0.78, 0.78)
 #: Meshes with more faces are decimated before rendering (keeps a render near 1 s).
 VIZ_MAX_FACES = 30000
+#: How far (percent of the bounding-box diagonal) the scalars of a decimated render
+#: are looked up on the original surface (pymeshlab's attribute transfer): everywhere.
+VIZ_SCALAR_SEARCH_PERCENT = 100.0
 #: Resolution of the PNG figures.
 VIZ_DPI = 110
 #: Width (inches) of a mesh render.

@@ -1,6 +1,9 @@
 """Headless figures: torsion-shaded meshes, energy curves, torsion profiles.
 
-Everything renders with matplotlib's Agg backend (no display needed) and is
+Every figure is a :class:`matplotlib.figure.Figure` drawn by its own
+:class:`~matplotlib.backends.backend_agg.FigureCanvasAgg`: nothing here imports
+:mod:`matplotlib.pyplot`, switches the global backend or changes
+``matplotlib.rcParams``, so a Jupyter session keeps its inline plots. Files are
 written atomically (temporary file in the target folder, then
 :func:`os.replace`), like :func:`vesselgp.io.write_mesh`.
 
@@ -16,26 +19,24 @@ Angles are radians in the API and degrees in every figure.
 from __future__ import annotations
 
 import logging
-import os
 from pathlib import Path
 
 import numpy as np
 
 from . import tolerances as tol
 from ._validate import as_mesh
-from .io import atomic_write  # noqa: F401  (re-exported: the CLI and demo use it)
-from .errors import MeshWriteError, VesselError
+from .io import atomic_write
+from .errors import DecimationError, OptionError, VesselError
 
 log = logging.getLogger(__name__)
 
 __all__ = [
-    "atomic_write",
+    "DecimationError",
     "torsion_colors",
     "render_mesh",
     "plot_energy_curve",
     "plot_torsion_profile",
     "view_basis",
-    "write_polyline",
 ]
 
 # Figure layout (not numerical tolerances): tallest mesh render in inches, and the
@@ -44,15 +45,31 @@ _MAX_HEIGHT = 7.0
 _MAX_UPRIGHT_ASPECT = 2.5
 
 
-def _mpl():
-    """matplotlib with the Agg backend (headless), imported lazily."""
+def _figure(figsize):
+    """A figure with its own Agg canvas: no pyplot, no global backend, no rcParams change."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save_png(fig, path, dpi, **kw):
+    """Write ``fig`` as a PNG, atomically."""
+    atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=dpi, **kw), binary=True)
+
+
+def _colormap(name):
+    """The matplotlib colormap called ``name`` (from the registry, no pyplot)."""
     import matplotlib
 
-    if matplotlib.get_backend().lower() != "agg":
-        matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
-    return matplotlib, plt
+    try:
+        return matplotlib.colormaps[name]
+    except (KeyError, TypeError):
+        raise OptionError(
+            f"unknown colormap {name!r}; pass a matplotlib colormap name such as 'coolwarm'"
+        ) from None
 
 
 def _symmetric_range(values, vmin, vmax):
@@ -87,6 +104,11 @@ def torsion_colors(values, vmin=None, vmax=None, cmap="coolwarm"):
     (n, 3) uint8
         RGB; NaN values are grey.
 
+    Raises
+    ------
+    OptionError
+        ``cmap`` is not a matplotlib colormap name.
+
     Examples
     --------
     >>> c = torsion_colors([-1.0, 0.0, 1.0])
@@ -95,11 +117,11 @@ def torsion_colors(values, vmin=None, vmax=None, cmap="coolwarm"):
     >>> bool(c[0, 2] > c[0, 0] and c[2, 0] > c[2, 2])  # negative blue, positive red
     True
     """
-    mpl, _ = _mpl()
+    cm = _colormap(cmap)
     v = np.asarray(values, float).reshape(-1)
     lo, hi = _symmetric_range(v, vmin, vmax)
     t = np.clip((v - lo) / (hi - lo), 0.0, 1.0)
-    rgba = mpl.colormaps[cmap](np.where(np.isfinite(t), t, 0.5))
+    rgba = cm(np.where(np.isfinite(t), t, 0.5))
     rgb = np.round(rgba[:, :3] * 255).astype(np.uint8)
     rgb[~np.isfinite(v)] = 128
     return rgb
@@ -158,31 +180,109 @@ def view_basis(V, view=None):
     return np.stack([right, up, w])
 
 
-def _decimate(V, F, scalars, max_faces):
-    """Quadric edge collapse to about ``max_faces`` faces; scalars follow the nearest vertex."""
+def _positive_int(value, name):
+    """``value`` as an int >= 1, or raise :class:`OptionError`."""
     try:
-        import pymeshlab
-        from scipy.spatial import cKDTree
+        n = int(value)
+    except (TypeError, ValueError):
+        n = None
+    if n is None or n != value or n < 1:
+        raise OptionError(f"{name} must be a positive integer, got {value!r}")
+    return n
 
-        ms = pymeshlab.MeshSet()
-        ms.add_mesh(pymeshlab.Mesh(V, F))
-        ms.meshing_decimation_quadric_edge_collapse(targetfacenum=int(max_faces), preservetopology=True)
-        m = ms.current_mesh()
-        V2 = np.asarray(m.vertex_matrix(), float)
-        F2 = np.asarray(m.face_matrix(), np.int64)
-        S2 = None
+
+def _pymeshlab_message(exc):
+    """pymeshlab's exception text on one line."""
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def _decimate(V, F, scalars, max_faces):
+    """Quadric edge collapse to about ``max_faces`` faces, scalars interpolated on the original.
+
+    The decimated vertices move off the original vertices (optimal placement),
+    so each one takes the scalar of the closest point of the original surface,
+    interpolated barycentrically in its triangle (pymeshlab's per-vertex
+    attribute transfer): a linear field stays linear up to the distance
+    between the two surfaces.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+    scalars : (n,) float64 or None
+        Per-vertex values; NaN spreads to the decimated vertices whose closest
+        original triangle touches it.
+    max_faces : int
+        Target face count (topology is preserved, so a few more may remain).
+
+    Returns
+    -------
+    V2 : (n2, 3) float64
+    F2 : (m2, 3) int64
+    S2 : (n2,) float64 or None
+
+    Raises
+    ------
+    DecimationError
+        pymeshlab's quadric edge collapse or attribute transfer raised
+        ``PyMeshLabException``, left no face, or left non-finite scalars where
+        all input scalars were finite.
+    """
+    import pymeshlab
+
+    F32 = F.astype(np.int32)
+    ms = pymeshlab.MeshSet()
+    src = None
+    try:
         if scalars is not None:
-            S2 = np.asarray(scalars, float)[cKDTree(V).query(V2)[1]]
-        return V2, F2, S2
-    except Exception as exc:  # pragma: no cover - fallback keeps rendering working
-        log.warning("decimation failed (%s); drawing a random subset of faces", exc)
-        rng = np.random.default_rng(0)
-        keep = np.sort(rng.choice(len(F), int(max_faces), replace=False))
-        return V, F[keep], scalars
+            S = np.ascontiguousarray(scalars, dtype=np.float64)
+            ms.add_mesh(pymeshlab.Mesh(vertex_matrix=V, face_matrix=F32, v_scalar_array=S), "original")
+            src = ms.current_mesh_id()
+        ms.add_mesh(pymeshlab.Mesh(vertex_matrix=V, face_matrix=F32), "decimated")
+        dst = ms.current_mesh_id()
+        ms.meshing_decimation_quadric_edge_collapse(targetfacenum=int(max_faces), preservetopology=True)
+        if src is not None:
+            ms.transfer_attributes_per_vertex(sourcemesh=src, targetmesh=dst, colortransfer=False,
+                                              qualitytransfer=True,
+                                              upperbound=pymeshlab.PercentageValue(tol.VIZ_SCALAR_SEARCH_PERCENT))
+        m = ms.mesh(dst)
+        V2 = np.ascontiguousarray(m.vertex_matrix(), dtype=np.float64)
+        F2 = np.ascontiguousarray(m.face_matrix(), dtype=np.int64)
+        S2 = None if src is None else np.array(m.vertex_scalar_array(), dtype=np.float64)
+    except pymeshlab.PyMeshLabException as exc:
+        raise DecimationError(
+            f"decimating the {len(F)}-face mesh to {max_faces} faces for rendering failed "
+            f"(pymeshlab: {_pymeshlab_message(exc)}); repair it with vesselgp.clean_mesh, "
+            f"or pass max_faces >= {len(F)} to draw every face"
+        ) from exc
+    if len(F2) == 0:
+        raise DecimationError(
+            f"decimating the {len(F)}-face mesh to {max_faces} faces left no face; "
+            f"repair it with vesselgp.clean_mesh, or pass max_faces >= {len(F)} to draw every face"
+        )
+    if S2 is not None and np.all(np.isfinite(scalars)) and not np.all(np.isfinite(S2)):
+        raise DecimationError(
+            f"{int(np.count_nonzero(~np.isfinite(S2)))} vertices of the decimated mesh got no scalar; "
+            f"pass max_faces >= {len(F)} to draw every face"
+        )
+    log.info("decimated a mesh for rendering: %d -> %d faces", len(F), len(F2))
+    return V2, F2, S2
 
 
 def _face_polys(V, F, basis):
-    """Screen polygons, depth order (far first) and Lambert shade of each face."""
+    """Screen polygons, shade and depth of each face, far first.
+
+    Returns
+    -------
+    poly : (m, 3, 2) float64
+        Screen (right, up) corners, in drawing order.
+    shade : (m,) float64
+        Flat two-sided Lambert shade in [VIZ_AMBIENT, 1].
+    depth : (m,) float64
+        Mean distance towards the viewer (increasing).
+    order : (m,) int64
+        Face index of each drawn polygon.
+    """
     P = V @ basis.T  # (n, 3): right, up, toward viewer
     T = V[F]
     N = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
@@ -194,7 +294,61 @@ def _face_polys(V, F, basis):
     shade = tol.VIZ_AMBIENT + (1.0 - tol.VIZ_AMBIENT) * lam
     depth = P[F, 2].mean(axis=1)
     order = np.argsort(depth, kind="stable")
-    return P[:, :2][F][order], shade[order], order
+    return P[:, :2][F][order], shade[order], depth[order], order
+
+
+def _shaded_polygons(meshes, basis, norm, cmap, color):
+    """Polygons and RGB face colours of all meshes, back to front.
+
+    ``meshes`` holds ``(V, F, S, main)``: per-vertex scalars ``S`` (or None)
+    colour a face by their mean; otherwise the main mesh is ``color`` and the
+    others grey.
+    """
+    polys, cols, depths = [], [], []
+    for Vm, Fm, Sm, main in meshes:
+        poly, shade, depth, order = _face_polys(Vm, Fm, basis)
+        if Sm is not None:
+            base = cmap(norm(np.nanmean(Sm[Fm[order]], axis=1)))[:, :3]
+        else:
+            rgb = color if main else tol.VIZ_OTHER_GREY
+            base = np.tile(np.asarray(rgb, float), (len(order), 1))
+        polys.append(poly)
+        cols.append(np.clip(base * shade[:, None], 0, 1))
+        depths.append(depth)
+    order = np.argsort(np.concatenate(depths), kind="stable")
+    return np.concatenate(polys)[order], np.concatenate(cols)[order]
+
+
+def _render_figure(poly, col, title, colorbar):
+    """Figure of screen polygons at equal aspect; ``colorbar`` is None or (ScalarMappable, label)."""
+    from matplotlib.collections import PolyCollection
+
+    xy = poly.reshape(-1, 2)
+    (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
+    w, h = max(x1 - x0, 1e-12), max(y1 - y0, 1e-12)
+    # axes size in inches from the content's aspect, then room for title and colour bar
+    a = h / w
+    wa = tol.VIZ_FIG_WIDTH if a <= _MAX_HEIGHT / tol.VIZ_FIG_WIDTH else _MAX_HEIGHT / a
+    ha = max(wa * a, 0.4)
+    right = 1.5 if colorbar is not None else 0.3
+    top = 0.6 if title else 0.25
+    W, H = wa + right + 0.3, max(ha + top + 0.3, 2.6 if colorbar is not None else 1.0)
+    fig = _figure((W, H))
+    yb = (H - top - ha) / 2
+    ax = fig.add_axes([0.3 / W, yb / H, wa / W, ha / H])
+    ax.add_collection(PolyCollection(poly, facecolors=col, edgecolors=col, linewidths=0.6, antialiaseds=False))
+    pad = 0.02 * max(w, h)
+    ax.set_xlim(x0 - pad, x1 + pad)
+    ax.set_ylim(y0 - pad, y1 + pad)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_axis_off()
+    if title:
+        fig.text(0.5, 1 - 0.3 / H, title, ha="center", va="center", fontsize=11)
+    if colorbar is not None:
+        ch = min(H - top - 0.5, 5.0)
+        cax = fig.add_axes([(W - right + 0.25) / W, (H - top - ch) / 2 / H + 0.1 / H, 0.22 / W, ch / H])
+        fig.colorbar(colorbar[0], cax=cax).set_label(colorbar[1])
+    return fig
 
 
 def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material twist \u03b1 (deg)",
@@ -228,17 +382,29 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
     color : (3,) float
         Colour of the mesh when ``scalars`` is None.
     max_faces : int
-        Meshes with more faces are decimated first (quadric edge collapse) so a
-        render takes about a second.
+        Meshes with more faces are decimated first (pymeshlab quadric edge
+        collapse; scalars interpolated at the closest original surface point)
+        so a render takes about a second.
     dpi : int
 
     Returns
     -------
     pathlib.Path
         The written file.
+
+    Raises
+    ------
+    VesselError
+        ``scalars`` has not one value per vertex, or ``view`` is zero.
+    OptionError
+        Unknown ``cmap`` or ``max_faces`` not a positive integer.
+    DecimationError
+        A mesh above ``max_faces`` could not be decimated (nothing is drawn instead).
+    MeshWriteError
+        The PNG could not be written.
     """
-    mpl, plt = _mpl()
-    from matplotlib.collections import PolyCollection
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
 
     V, F = as_mesh(V, F)
     S = None
@@ -246,68 +412,17 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
         S = np.asarray(scalars, float).reshape(-1)
         if S.shape != (len(V),):
             raise VesselError(f"scalars must have one value per vertex ({len(V)}), got {S.shape}")
-    meshes = [(V, F, S, True)]
-    for Vo, Fo in others:
-        Vo, Fo = as_mesh(Vo, Fo)
-        meshes.append((Vo, Fo, None, False))
+    max_faces = _positive_int(max_faces, "max_faces")
+    cm = _colormap(cmap)
+    meshes = [(V, F, S, True)] + [(*as_mesh(Vo, Fo), None, False) for Vo, Fo in others]
     meshes = [(*_decimate(v, f, s, max_faces), main) if len(f) > max_faces else (v, f, s, main)
               for v, f, s, main in meshes]
-    allV = np.concatenate([m[0] for m in meshes])
-    basis = view_basis(V if view is None else allV, view)
-    lo, hi = _symmetric_range(S if S is not None else [0.0], vmin, vmax)
-    norm = mpl.colors.Normalize(lo, hi)
-    cm = mpl.colormaps[cmap]
-
-    polys, cols, depths = [], [], []
-    for Vm, Fm, Sm, main in meshes:
-        poly, shade, order = _face_polys(Vm, Fm, basis)
-        if Sm is not None:
-            fs = np.nanmean(Sm[Fm[order]], axis=1)
-            base = cm(norm(fs))[:, :3]
-        elif main:
-            base = np.tile(np.asarray(color, float), (len(order), 1))
-        else:
-            base = np.tile(np.asarray(tol.VIZ_OTHER_GREY, float), (len(order), 1))
-        polys.append(poly)
-        cols.append(np.clip(base * shade[:, None], 0, 1))
-        depths.append((Vm @ basis[2])[Fm[order]].mean(axis=1))
-    poly = np.concatenate(polys)
-    col = np.concatenate(cols)
-    order = np.argsort(np.concatenate(depths), kind="stable")
-    poly, col = poly[order], col[order]
-
-    xy = poly.reshape(-1, 2)
-    (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
-    w, h = max(x1 - x0, 1e-12), max(y1 - y0, 1e-12)
-    # axes size in inches from the content's aspect, then room for title and colour bar
-    a = h / w
-    wa = tol.VIZ_FIG_WIDTH if a <= _MAX_HEIGHT / tol.VIZ_FIG_WIDTH else _MAX_HEIGHT / a
-    ha = max(wa * a, 0.4)
-    right = 1.5 if S is not None else 0.3
-    top = 0.6 if title else 0.25
-    W, H = wa + right + 0.3, max(ha + top + 0.3, 2.6 if S is not None else 1.0)
-    fig = plt.figure(figsize=(W, H))
-    try:
-        yb = (H - top - ha) / 2
-        ax = fig.add_axes([0.3 / W, yb / H, wa / W, ha / H])
-        pc = PolyCollection(poly, facecolors=col, edgecolors=col, linewidths=0.6, antialiaseds=False)
-        ax.add_collection(pc)
-        pad = 0.02 * max(w, h)
-        ax.set_xlim(x0 - pad, x1 + pad)
-        ax.set_ylim(y0 - pad, y1 + pad)
-        ax.set_aspect("equal", adjustable="box")
-        ax.set_axis_off()
-        if title:
-            fig.text(0.5, 1 - 0.3 / H, title, ha="center", va="center", fontsize=11)
-        if S is not None:
-            ch = min(H - top - 0.5, 5.0)
-            cax = fig.add_axes([(W - right + 0.25) / W, (H - top - ch) / 2 / H + 0.1 / H, 0.22 / W, ch / H])
-            sm = mpl.cm.ScalarMappable(norm=norm, cmap=cm)
-            cb = fig.colorbar(sm, cax=cax)
-            cb.set_label(cbar_label)
-        atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=dpi, facecolor="white"), binary=True)
-    finally:
-        plt.close(fig)
+    basis = view_basis(V if view is None else np.concatenate([m[0] for m in meshes]), view)
+    norm = Normalize(*_symmetric_range(S if S is not None else [0.0], vmin, vmax))
+    poly, col = _shaded_polygons(meshes, basis, norm, cm, color)
+    bar = None if S is None else (ScalarMappable(norm=norm, cmap=cm), cbar_label)
+    fig = _render_figure(poly, col, title, bar)
+    _save_png(fig, path, dpi, facecolor="white")
     log.info("rendered %s (%d faces)", path, len(poly))
     return Path(path)
 
@@ -339,7 +454,6 @@ def plot_energy_curve(path, angles, energies, *, optimum=None, evaluated=None, f
     -------
     pathlib.Path
     """
-    mpl, plt = _mpl()
     a = np.asarray(angles, float).reshape(-1)
     e = np.asarray(energies, float).reshape(-1)
     if a.shape != e.shape or a.size == 0:
@@ -348,32 +462,30 @@ def plot_energy_curve(path, angles, energies, *, optimum=None, evaluated=None, f
     order = np.argsort(a)
     a, e = a[order], e[order]
     x = np.degrees(a - ref)
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    try:
-        ax.plot(x, e, "-o", color="C0", ms=4, lw=1.6, label="torsion energy (Eq. 8)")
-        if fit_quadratic and a.size >= 3:
-            c = np.polyfit(x, e, 2)
-            xf = np.linspace(x.min(), x.max(), 300)
-            ax.plot(xf, np.polyval(c, xf), "--", color="0.4", lw=1.0, label="quadratic fit")
-        if evaluated is not None:
-            ea, ee = (np.asarray(v, float).reshape(-1) for v in evaluated)
-            ax.plot(np.degrees(ea - ref), ee, ".", color="C2", ms=7, label=f"optimiser evaluations ({ea.size})")
-        if optimum is not None:
-            oa, oe = float(optimum[0]), float(optimum[1])
-            ax.plot([np.degrees(oa - ref)], [oe], "*", color="C3", ms=16, zorder=5,
-                    label=f"minimum: {np.degrees(oa):.1f}\u00b0, E = {oe:.3g}")
-        ax.set_xlabel("rotation of the joined end" + (" from the optimum" if relative_to is not None else "")
-                      + " (deg)")
-        ax.set_ylabel("torsion energy  $E_\\tau=\\int_0^1 \\alpha'(s)^2\\,ds$")
-        ax.set_ylim(bottom=min(0.0, float(np.nanmin(e))))
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper center", fontsize=8, framealpha=0.9)
-        if title:
-            ax.set_title(title)
-        fig.tight_layout()
-        atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=tol.VIZ_DPI), binary=True)
-    finally:
-        plt.close(fig)
+    fig = _figure((6.4, 4.2))
+    ax = fig.subplots()
+    ax.plot(x, e, "-o", color="C0", ms=4, lw=1.6, label="torsion energy (Eq. 8)")
+    if fit_quadratic and a.size >= 3:
+        c = np.polyfit(x, e, 2)
+        xf = np.linspace(x.min(), x.max(), 300)
+        ax.plot(xf, np.polyval(c, xf), "--", color="0.4", lw=1.0, label="quadratic fit")
+    if evaluated is not None:
+        ea, ee = (np.asarray(v, float).reshape(-1) for v in evaluated)
+        ax.plot(np.degrees(ea - ref), ee, ".", color="C2", ms=7, label=f"optimiser evaluations ({ea.size})")
+    if optimum is not None:
+        oa, oe = float(optimum[0]), float(optimum[1])
+        ax.plot([np.degrees(oa - ref)], [oe], "*", color="C3", ms=16, zorder=5,
+                label=f"minimum: {np.degrees(oa):.1f}\u00b0, E = {oe:.3g}")
+    ax.set_xlabel("rotation of the joined end" + (" from the optimum" if relative_to is not None else "")
+                  + " (deg)")
+    ax.set_ylabel("torsion energy  $E_\\tau=\\int_0^1 \\alpha'(s)^2\\,ds$")
+    ax.set_ylim(bottom=min(0.0, float(np.nanmin(e))))
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper center", fontsize=8, framealpha=0.9)
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    _save_png(fig, path, tol.VIZ_DPI)
     return Path(path)
 
 
@@ -391,98 +503,20 @@ def plot_torsion_profile(path, profile, *, title=None):
     -------
     pathlib.Path
     """
-    mpl, plt = _mpl()
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(6.4, 5.2), sharex=True)
-    try:
-        a1.plot(profile.s, np.degrees(profile.alpha), color="C0", lw=1.8, label="\u03b1(s), smoothed")
-        a1.plot(profile.bin_s, np.degrees(profile.bin_alpha), ".", color="0.55", ms=3, label="Eq. 7 bin means")
-        a1.set_ylabel("twist \u03b1 (deg)")
-        a1.legend(fontsize=8)
-        a1.grid(True, alpha=0.3)
-        a2.plot(profile.s, np.degrees(profile.dalpha), color="C3", lw=1.8)
-        a2.axhline(0.0, color="0.5", lw=0.8)
-        a2.set_ylabel("torsion \u03b1'(s) (deg per unit s)")
-        a2.set_xlabel("normalised arc length s")
-        a2.grid(True, alpha=0.3)
-        a1.set_title(title or f"total twist {np.degrees(profile.total_twist):.1f}\u00b0, "
-                     f"energy E = {profile.energy:.4g} (Eq. 8)", fontsize=10)
-        fig.tight_layout()
-        atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=tol.VIZ_DPI), binary=True)
-    finally:
-        plt.close(fig)
+    fig = _figure((6.4, 5.2))
+    a1, a2 = fig.subplots(2, 1, sharex=True)
+    a1.plot(profile.s, np.degrees(profile.alpha), color="C0", lw=1.8, label="\u03b1(s), smoothed")
+    a1.plot(profile.bin_s, np.degrees(profile.bin_alpha), ".", color="0.55", ms=3, label="Eq. 7 bin means")
+    a1.set_ylabel("twist \u03b1 (deg)")
+    a1.legend(fontsize=8)
+    a1.grid(True, alpha=0.3)
+    a2.plot(profile.s, np.degrees(profile.dalpha), color="C3", lw=1.8)
+    a2.axhline(0.0, color="0.5", lw=0.8)
+    a2.set_ylabel("torsion \u03b1'(s) (deg per unit s)")
+    a2.set_xlabel("normalised arc length s")
+    a2.grid(True, alpha=0.3)
+    a1.set_title(title or f"total twist {np.degrees(profile.total_twist):.1f}\u00b0, "
+                 f"energy E = {profile.energy:.4g} (Eq. 8)", fontsize=10)
+    fig.tight_layout()
+    _save_png(fig, path, tol.VIZ_DPI)
     return Path(path)
-
-
-def write_polyline(path, P, point_data=None):
-    """Write a polyline (e.g. a medial axis) that ParaView and MeshLab open, atomically.
-
-    ``.vtp``: VTK XML PolyData with one ``<Lines>`` cell and point arrays
-    (scalars or 3-vectors). ``.ply``: ASCII PLY with ``vertex`` and ``edge``
-    elements (MeshLab shows the edges); scalar point data become vertex properties.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        ``.vtp`` or ``.ply``.
-    P : (k, 3) float64
-        Points in order.
-    point_data : dict of str to (k,) or (k, 3) float64, optional
-        Named per-point arrays (3-vectors are stored in VTP only).
-
-    Examples
-    --------
-    >>> import tempfile, os
-    >>> d = tempfile.mkdtemp()
-    >>> P = np.c_[np.zeros(3), np.zeros(3), np.arange(3.0)]
-    >>> write_polyline(os.path.join(d, "axis.ply"), P, {"radius": np.ones(3)})
-    >>> open(os.path.join(d, "axis.ply")).read().count("element")
-    2
-    """
-    from ._validate import as_points
-
-    P = as_points(P, "P", min_rows=2)
-    k = len(P)
-    data = {}
-    for name, a in (point_data or {}).items():
-        a = np.asarray(a, float)
-        if a.shape not in ((k,), (k, 3)):
-            raise VesselError(f"point data {name!r} must have shape ({k},) or ({k}, 3), got {a.shape}")
-        data[name] = a
-    ext = Path(os.fspath(path)).suffix.lower()
-    if ext == ".vtp":
-        def w(fh):
-            fh.write('<?xml version="1.0"?>\n<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian">\n'
-                     "  <PolyData>\n")
-            fh.write(f'    <Piece NumberOfPoints="{k}" NumberOfVerts="0" NumberOfLines="1" '
-                     'NumberOfStrips="0" NumberOfPolys="0">\n')
-            if data:
-                first = next((n for n, a in data.items() if a.ndim == 1), None)
-                fh.write("      <PointData" + (f' Scalars="{first}"' if first else "") + ">\n")
-                for name, a in data.items():
-                    nc = 1 if a.ndim == 1 else 3
-                    fh.write(f'        <DataArray type="Float64" Name="{name}" NumberOfComponents="{nc}" '
-                             'format="ascii">\n')
-                    np.savetxt(fh, a.reshape(k, nc), fmt="%.10g")
-                    fh.write("        </DataArray>\n")
-                fh.write("      </PointData>\n")
-            fh.write('      <Points>\n        <DataArray type="Float64" NumberOfComponents="3" format="ascii">\n')
-            np.savetxt(fh, P, fmt="%.10g")
-            fh.write("        </DataArray>\n      </Points>\n      <Lines>\n")
-            fh.write('        <DataArray type="Int64" Name="connectivity" format="ascii">\n')
-            fh.write(" ".join(map(str, range(k))) + "\n        </DataArray>\n")
-            fh.write(f'        <DataArray type="Int64" Name="offsets" format="ascii">\n{k}\n        </DataArray>\n')
-            fh.write("      </Lines>\n    </Piece>\n  </PolyData>\n</VTKFile>\n")
-    elif ext == ".ply":
-        scal = {n: a for n, a in data.items() if a.ndim == 1}
-
-        def w(fh):
-            fh.write(f"ply\nformat ascii 1.0\ncomment polyline written by vesselgp\nelement vertex {k}\n"
-                     "property double x\nproperty double y\nproperty double z\n")
-            for n in scal:
-                fh.write(f"property double {n}\n")
-            fh.write(f"element edge {k - 1}\nproperty int vertex1\nproperty int vertex2\nend_header\n")
-            np.savetxt(fh, np.column_stack([P, *scal.values()]), fmt="%.10g")
-            np.savetxt(fh, np.c_[np.arange(k - 1), np.arange(1, k)], fmt="%d")
-    else:
-        raise MeshWriteError(f"{path}: a polyline is written as .vtp or .ply, not {ext!r}")
-    atomic_write(path, w)

@@ -1,0 +1,135 @@
+"""Break the core formulas on purpose and check that the test-suite notices (issue #12).
+
+Each mutation replaces one exact piece of source in a copy of the package (the
+working tree is never touched), then runs the tests on the copy. A mutation is
+*caught* when at least one test fails. Run::
+
+    python scripts/mutations.py                 # every mutation, the tests named for it
+    python scripts/mutations.py --full          # every mutation against the whole suite (-x)
+    python scripts/mutations.py --only eq8_square --full
+
+Exit code 0 when every mutation is caught, 1 otherwise.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+#: name -> (file, exact source, replacement, tests expected to catch it)
+MUTATIONS = {
+    "eq7_sign": (
+        "vesselgp/torsion.py",
+        "dtheta = wrap_angle(theta - self._theta0)",
+        "dtheta = wrap_angle(self._theta0 - theta)",
+        ["tests/test_torsion.py"],
+    ),
+    "eq8_square": (
+        "vesselgp/torsion.py",
+        "energy = float(np.trapezoid(dspl(sq) ** 2, sq))",
+        "energy = float(np.trapezoid(np.abs(dspl(sq)), sq))",
+        ["tests/test_torsion.py"],
+    ),
+    "energy_x1.015": (
+        "vesselgp/torsion.py",
+        "energy = float(np.trapezoid(dspl(sq) ** 2, sq))",
+        "energy = 1.015 * float(np.trapezoid(dspl(sq) ** 2, sq))",
+        ["tests/test_torsion.py"],
+    ),
+    "radii_x1.008": (
+        "vesselgp/fit.py",
+        "    radii = _radius_fit(s, np.hypot(local[:, 1], local[:, 2]), w, K, mu)\n    sK = np.linspace(0, 1, K)",
+        "    radii = 1.008 * _radius_fit(s, np.hypot(local[:, 1], local[:, 2]), w, K, mu)\n"
+        "    sK = np.linspace(0, 1, K)",
+        ["tests/test_fit.py"],
+    ),
+    "rmf_spurious_2deg": (
+        "vesselgp/curves.py",
+        "    U /= np.linalg.norm(U, axis=1)[:, None]\n    V = np.cross(T, U)\n    return T, U, V",
+        "    U /= np.linalg.norm(U, axis=1)[:, None]\n"
+        "    _c = chord_length(P)\n"
+        "    _a = np.radians(2.0) * _c / _c[-1]\n"
+        "    U = np.cos(_a)[:, None] * U + np.sin(_a)[:, None] * np.cross(T, U)\n"
+        "    V = np.cross(T, U)\n    return T, U, V",
+        ["tests/test_curves.py"],
+    ),
+    "rmf_rotation_method": (
+        "vesselgp/curves.py",
+        '    if method == "double_reflection":\n        U[1:] = _double_reflection_maps(P, T) @ r\n'
+        '    elif method == "rotation":',
+        '    if method == "__never__":\n        U[1:] = _double_reflection_maps(P, T) @ r\n'
+        '    elif method in ("rotation", "double_reflection"):',
+        ["tests/test_curves.py"],
+    ),
+    "optimizer_first_probe": (
+        "vesselgp/join.py",
+        "    k = int(np.argmin(E))\n    best = float(A[k])",
+        "    k = 0\n    best = float(A[k])",
+        ["tests/test_join.py"],
+    ),
+    "deformer_ignores_angle": (
+        "vesselgp/deform.py",
+        "        d = self.deformer\n        bc = self.handle_positions(angle)",
+        "        d = self.deformer\n        angle = 0.0\n        bc = self.handle_positions(angle)",
+        ["tests/test_deform.py", "tests/test_join.py"],
+    ),
+}
+
+
+def _copy_tree(dst):
+    for name in ("vesselgp", "tests"):
+        shutil.copytree(ROOT / name, dst / name, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(ROOT / "pyproject.toml", dst / "pyproject.toml")
+
+
+def run_mutation(name, full=False, timeout=1800):
+    """Apply one mutation to a fresh copy and run its tests; returns (caught, first failure line, seconds)."""
+    path, old, new, tests = MUTATIONS[name]
+    with tempfile.TemporaryDirectory(prefix=f"vgp-mut-{name}-") as tmp:
+        dst = Path(tmp)
+        _copy_tree(dst)
+        src = (dst / path).read_text()
+        if src.count(old) != 1:
+            raise SystemExit(f"{name}: the source to mutate occurs {src.count(old)} times in {path}; update MUTATIONS")
+        (dst / path).write_text(src.replace(old, new))
+        cmd = [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", "-o", "addopts=",
+               *(["tests"] if full else tests)]
+        sys.path.insert(0, str(ROOT / "tests"))
+        from _data import REAL  # the real meshes, found from the checkout (not from the copy)
+
+        env = {**os.environ, "PYTHONPATH": str(dst), "VESSELGP_REAL_DATA": str(REAL)}
+        t0 = time.perf_counter()
+        r = subprocess.run(cmd, cwd=dst, env=env, capture_output=True, text=True, timeout=timeout)
+        dt = time.perf_counter() - t0
+        failed = [ln for ln in r.stdout.splitlines() if ln.startswith(("FAILED", "ERROR"))]
+        return r.returncode != 0, (failed[0] if failed else r.stdout.strip().splitlines()[-1]), dt
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", nargs="*", choices=sorted(MUTATIONS), help="run these mutations only")
+    ap.add_argument("--full", action="store_true", help="run the whole suite (stops at the first failure)")
+    args = ap.parse_args(argv)
+    names = args.only or list(MUTATIONS)
+    missed = []
+    print(f"{'mutation':<24} {'caught':<7} {'s':>6}  first failing test")
+    for name in names:
+        caught, line, dt = run_mutation(name, args.full)
+        print(f"{name:<24} {'yes' if caught else 'NO':<7} {dt:6.1f}  {line}", flush=True)
+        if not caught:
+            missed.append(name)
+    if missed:
+        print("not caught: " + ", ".join(missed))
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
