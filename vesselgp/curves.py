@@ -399,16 +399,10 @@ def _frenet_smooth(P, length_scale):
     # each maximal run of defined samples gets its own smoothed phi(s)
     edges = np.flatnonzero(np.diff(np.concatenate([[0], defined.astype(int), [0]])))
     for a, b in zip(edges[::2], edges[1::2]):
-        if b - a >= 5:
-            try:
-                ph = make_smoothing_spline(u[a:b], np.unwrap(phi[a:b]))
-            except (ValueError, np.linalg.LinAlgError):
-                # the GCV choice of smoothing is ill-posed (e.g. a curve far shorter than
-                # length_scale): smooth phi like the points instead
-                try:
-                    ph = make_smoothing_spline(u[a:b], np.unwrap(phi[a:b]), lam=lam)
-                except (ValueError, np.linalg.LinAlgError):
-                    continue  # torsion stays undefined (NaN, defined False) on this run
+        if b - a >= tol.FRENET_MIN_RUN:
+            # phi is smoothed like the points (the same smoothing length): the rate at
+            # which the curvature direction turns is then free of the points' noise
+            ph = make_smoothing_spline(u[a:b], np.unwrap(phi[a:b]), lam=lam)
             tau[a:b] = ph.derivative()(u[a:b])
     defined = defined & np.isfinite(tau)
     B = np.full_like(c, np.nan)

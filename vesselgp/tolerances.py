@@ -21,6 +21,10 @@ STRAIGHT_KAPPA_R = 1e-4
 #: Smoothing length of the Frenet quantities of a fitted axis, in length scales (radii).
 FRENET_SMOOTHING_SCALES = 0.7
 
+#: Shortest run of curved samples (the Frenet frame defined) whose torsion is computed;
+#: shorter runs keep it undefined (NaN, ``defined`` False).
+FRENET_MIN_RUN = 5
+
 #: The same for a fitted (noisy) axis: bend radius above 500 length scales (radii) is straight.
 STRAIGHT_KAPPA_R_FITTED = 2e-3
 
