@@ -59,10 +59,11 @@ import scipy.sparse as sp
 
 from . import tolerances as tol
 from ._validate import as_mesh, as_vector
+from .axis import interp_frames
 from .curves import rotation_minimizing_frames, transport_angle
 from .errors import EndsError, FrameError, MismatchError, OptionError
 from .fit import GeneralizedCylinder, fit_generalized_cylinder
-from .rotations import minimal_rotation, rotate, unit
+from .rotations import minimal_rotation, rotate, unit, unit_rows
 
 log = logging.getLogger(__name__)
 
@@ -330,18 +331,14 @@ class RodDeformer:
         self.g = cum / cum[-1]
 
     def _vertex_weights(self):
-        """Free vertices, their dense-axis segment ``j`` and weight ``t``, and their rest local coordinates."""
-        gc = self.gc
-        sv, ds = gc.vertex_s, gc.dense_s
+        """Free vertices, their rest ``s`` and rest local coordinates (offset, x, y in the frame at ``s``)."""
+        sv = self.gc.vertex_s
         free = (sv > self.s_boundary) if self.s_end == 1.0 else (sv < self.s_boundary)
         free[self.fixed] = False
         free[self.moving] = False
         self.free = np.flatnonzero(free)
-        s = sv[self.free]
-        j = np.clip(np.searchsorted(ds, s, side="right") - 1, 0, len(ds) - 2)
-        self.seg = j
-        self.seg_t = ((s - ds[j]) / (ds[j + 1] - ds[j]))[:, None]
-        self.local = gc.vertex_local[self.free]
+        self.free_s = sv[self.free]
+        self.local = self.gc.vertex_local[self.free]
 
     def _factorise(self, arap_iterations):
         """The target-free factorisations: libigl ARAP data or the bi-Laplacian's min_quad_with_fixed."""
@@ -467,15 +464,9 @@ class RodPlacement:
         else:
             gd[: d.nodes[-1] + 1] = 1.0
         self.axis_points, self.axis_frames = Pd, Fd
-        j, t = d.seg, d.seg_t
-        self._vm = (1 - t) * Pd[j] + t * Pd[j + 1]
-        T = (1 - t) * Fd[j, 0] + t * Fd[j + 1, 0]
-        T /= np.linalg.norm(T, axis=1)[:, None]
-        U = (1 - t) * Fd[j, 1] + t * Fd[j + 1, 1]
-        U -= np.sum(U * T, axis=1)[:, None] * T
-        U /= np.linalg.norm(U, axis=1)[:, None]
-        self._vT, self._vU, self._vV = T, U, np.cross(T, U)
-        self._vg = (1 - t[:, 0]) * gd[j] + t[:, 0] * gd[j + 1]
+        self._vm, fr = interp_frames(gc.dense_s, Pd, Fd, d.free_s)
+        self._vT, self._vU, self._vV = fr[:, 0], fr[:, 1], fr[:, 2]
+        self._vg = np.interp(d.free_s, gc.dense_s, gd)
 
     def _bent_axis(self):
         """Steps 1-2 of the module notes: the bent free axis, its tangents and transported RMF normals."""
@@ -501,7 +492,7 @@ class RodPlacement:
         Pn = Pi + h[:, None] * c
         Pn[-1] = target.origin
         Dn = d.free_length * Tn + dh[:, None] * c
-        Dn /= np.linalg.norm(Dn, axis=1)[:, None]
+        Dn = unit_rows(Dn)
         Tf, Uf, _ = rotation_minimizing_frames(Pn, Dn, initial_normal=gc.dense_frames[d.nodes[0], 1])
         return Pn, d.sign * Tf, Uf
 
