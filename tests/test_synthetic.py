@@ -12,7 +12,7 @@ import pytest
 
 from vesselgp import synthetic as S
 from vesselgp.curves import frenet, rotation_minimizing_frames, transport_angle
-from vesselgp.errors import InvalidMeshError, VesselError
+from vesselgp.errors import FrameError, InvalidMeshError, VesselError
 
 R = 1.5
 
@@ -80,6 +80,22 @@ def test_bad_inputs_raise():
         S.synthetic_vessel("straight", ends="closed")
     with pytest.raises(InvalidMeshError):
         S.synthetic_vessel("straight", bulges=[(0.5, 0.0, 0.3)], remesh=False)
+
+
+def test_bad_initial_normal_and_twist_raise():
+    """The truth RMF's start and the twist are validated, not turned into NaN vertices."""
+    with pytest.raises(FrameError, match="initial_normal is parallel to the first tangent"):
+        S.synthetic_vessel("straight", initial_normal=[0, 0, 2.0], remesh=False)
+    with pytest.raises(FrameError, match="initial_normal is the zero vector"):
+        S.synthetic_vessel("straight", initial_normal=[0, 0, 0], remesh=False)
+    with pytest.raises(InvalidMeshError, match="twist"):
+        S.synthetic_vessel("arc", twist=lambda s: np.where(s > 0.5, np.nan, s), n_around=8, remesh=False)
+    rest = S.synthetic_vessel("straight", n_around=8, remesh=False)
+    with pytest.raises(InvalidMeshError, match="twist"):
+        S.deform_synthetic(rest, "arc", twist=lambda s: np.where(s < 0.5, s, np.inf))
+    x = np.r_[np.linspace(0, 1, 10), np.linspace(0.95, 0, 10)]  # out along x and back: a cusp
+    with pytest.raises(FrameError, match="tangent vanishes"):
+        S.synthetic_vessel(np.c_[x, np.zeros(20), np.zeros(20)], radius=0.01, remesh=False)
 
 
 # --------------------------------------------------------------------------- twist

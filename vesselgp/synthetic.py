@@ -1,9 +1,9 @@
 """Synthetic vessels with known medial axis, radius and twist (issue #3).
 
 A vessel is swept along a 3D curve with the curve's rotation-minimizing frame
-(RMF, paper Section 1, double reflection method of ref. [3]), never with the
-Frenet frame (which turns by the integral of the Frenet torsion) nor with
-sweeps that add spurious twist along curved paths. The surface is
+(RMF, paper Section 1), never with the Frenet frame (which turns by the
+integral of the Frenet torsion) nor with sweeps that add spurious twist along
+curved paths. The surface is
 
     X(s, theta) = m(s) + rho(s, theta) [cos(theta + alpha(s)) U(s) + sin(theta + alpha(s)) V(s)]
 
@@ -21,6 +21,19 @@ so that this mean equals r(s). Angular bulges (the aortic sinuses) are added on
 top; :attr:`GroundTruth.radii` always holds the perimeter-mean distance of the
 final section, computed by quadrature.
 
+The ground-truth RMF does not come from :mod:`vesselgp.curves` (issue #12: a
+bug there must not be shared by the truth and the code it checks). It is the
+solution of the RMF (Bishop, parallel transport) equation
+
+    dU/ds = -(U . T'(s)) T(s)
+
+on the exact quintic spline of the axis, integrated by
+:func:`scipy.integrate.solve_ivp` (DOP853) over each sample interval, where
+the spline is one polynomial, and re-orthonormalised against the exact
+tangent. It agrees with the closed forms (helix, twisted cubic, planar
+curves, straight line: tests/test_truth.py) to about 1e-14 rad at the samples
+and 1e-11 rad between them (cubic interpolation of U).
+
 After optional isotropic remeshing every vertex is projected onto the exact
 surface, so the ground truth ``(s, theta)`` of every vertex is exact, not an
 approximation of the remeshed surface.
@@ -36,16 +49,25 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
+from scipy.integrate import solve_ivp
 from scipy.interpolate import make_interp_spline
 from scipy.spatial import cKDTree
 
 from . import tolerances as tol
 from ._validate import as_points, as_vector
-from .curves import chord_length, rotation_minimizing_frames, transport_angle
+from .curves import chord_length
 from .errors import FrameError, InvalidMeshError, VesselError
+from .rotations import (
+    minimal_rotation,
+    perpendicular,
+    rotate,
+    rotation_matrix,
+    unit,
+    wrap_angle,
+)
 
 __all__ = [
     "named_curve",
@@ -132,25 +154,50 @@ def named_curve(name, n=None, **params):
     n = tol.SYNTH_CURVE_SAMPLES if n is None else int(n)
     if n < 8:
         raise InvalidMeshError(f"named_curve needs n >= 8 samples, got {n}")
-    defaults = {
-        "straight": {"length": 30.0},
-        "arc": {"bend_radius": 10.0, "angle": math.pi},
-        "helix": {"radius": 8.0, "pitch": 20.0, "turns": 1.5},
-        "s_curve": {"length": 40.0, "amplitude": 4.0},
-        "aortic_arch": {"ascending": 50.0, "arch_radius": 32.0, "out_of_plane": 15.0, "descending": 100.0},
-        "aortic_root": {"length": 30.0, "bow": 2.0},
-    }
-    if name not in defaults:
-        raise VesselError(f"unknown curve name {name!r}; use one of {sorted(defaults)}")
-    unknown = set(params) - set(defaults[name])
+    p = _curve_params(name, params)
+    if name == "aortic_arch":
+        return _aortic_arch(n, p)
+    return _simple_curve(name, np.linspace(0.0, 1.0, n), p)
+
+
+#: Shape parameters of each named curve and their defaults (see :func:`named_curve`).
+_CURVE_DEFAULTS = {
+    "straight": {"length": 30.0},
+    "arc": {"bend_radius": 10.0, "angle": math.pi},
+    "helix": {"radius": 8.0, "pitch": 20.0, "turns": 1.5},
+    "s_curve": {"length": 40.0, "amplitude": 4.0},
+    "aortic_arch": {"ascending": 50.0, "arch_radius": 32.0, "out_of_plane": 15.0, "descending": 100.0},
+    "aortic_root": {"length": 30.0, "bow": 2.0},
+}
+
+#: Parameters that may be zero or negative (offsets, not sizes).
+_SIGNED_CURVE_PARAMS = ("amplitude", "bow", "out_of_plane")
+
+
+def _curve_params(name, params):
+    """The defaults of curve ``name`` updated by ``params`` (floats), validated.
+
+    Raises
+    ------
+    VesselError
+        Unknown name or parameter, or a non-positive or non-finite size.
+    """
+    if name not in _CURVE_DEFAULTS:
+        raise VesselError(f"unknown curve name {name!r}; use one of {sorted(_CURVE_DEFAULTS)}")
+    defaults = _CURVE_DEFAULTS[name]
+    unknown = set(params) - set(defaults)
     if unknown:
-        raise VesselError(f"curve {name!r} has no parameter(s) {sorted(unknown)}; use {sorted(defaults[name])}")
-    p = {**defaults[name], **{k: float(v) for k, v in params.items()}}
-    positive = {k: v for k, v in p.items() if k not in ("amplitude", "bow", "out_of_plane")}
+        raise VesselError(f"curve {name!r} has no parameter(s) {sorted(unknown)}; use {sorted(defaults)}")
+    p = {**defaults, **{k: float(v) for k, v in params.items()}}
+    positive = {k: v for k, v in p.items() if k not in _SIGNED_CURVE_PARAMS}
     if any(not (v > 0 and np.isfinite(v)) for v in positive.values()):
         raise VesselError(f"curve {name!r} needs positive finite sizes, got {positive}")
-    t = np.linspace(0.0, 1.0, n)
-    z0 = np.zeros(n)
+    return p
+
+
+def _simple_curve(name, t, p):
+    """Samples of a one-piece named curve at parameters ``t`` (k,) in [0, 1]; (k, 3) float64."""
+    z0 = np.zeros_like(t)
     if name == "straight":
         return np.c_[z0, z0, p["length"] * t]
     if name == "arc":
@@ -163,10 +210,12 @@ def named_curve(name, n=None, **params):
     if name == "s_curve":
         z = p["length"] * t
         return np.c_[p["amplitude"] * np.sin(2 * math.pi * z / p["length"]), z0, z]
-    if name == "aortic_root":
-        z = p["length"] * t
-        return np.c_[p["bow"] * t**2, z0, z]
-    # aortic arch: three C1-joined pieces, samples shared out by length
+    # aortic root
+    return np.c_[p["bow"] * t**2, z0, p["length"] * t]
+
+
+def _aortic_arch(n, p):
+    """``n`` samples of the aortic arch: three C1-joined pieces, samples shared out by length."""
     A, R, h, D = p["ascending"], p["arch_radius"], p["out_of_plane"], p["descending"]
     la = math.pi * R
     w = np.array([A, la, D]) / (A + la + D)
@@ -186,11 +235,14 @@ def named_curve(name, n=None, **params):
 # ---------------------------------------------------------------------------
 
 
+
+
 class _Axis:
     """Axis curve m(s), s in [0, 1] normalized arc length, with its RMF.
 
     Defined by K samples (uniform in s): quintic spline of the centres, cubic
-    spline of the RMF normals re-orthogonalized against the exact tangent.
+    spline of the RMF normals (:func:`_integrated_rmf` at the samples)
+    re-orthogonalized against the exact tangent.
     """
 
     def __init__(self, s, centers, U):
@@ -200,7 +252,7 @@ class _Axis:
         self._dm = self._m.derivative(1)
         self._ddm = self._m.derivative(2)
         self._U = make_interp_spline(s, U, k=3)
-        self.length = float(np.sum(np.linalg.norm(np.diff(centers, axis=0), axis=1)))
+        self.length = _polyline_length(centers)
 
     def point(self, s):
         return self._m(s)
@@ -236,8 +288,31 @@ class _Axis:
         return s
 
 
-def _arc_length_axis(P, initial_normal, K=None):
-    """Resample a curve uniformly in arc length and build its RMF axis."""
+def _polyline_length(P):
+    """Length of the polyline through ``P`` (k, 3); float."""
+    return float(np.sum(np.linalg.norm(np.diff(P, axis=0), axis=1)))
+
+
+def _arc_length_samples(P, K=None):
+    """``K`` points uniform in arc length along the quintic chord-length spline of ``P``.
+
+    Parameters
+    ----------
+    P : (k, 3) float64
+        Curve points, k >= 4.
+    K : int, optional
+        Default :data:`vesselgp.tolerances.SYNTH_AXIS_SAMPLES`.
+
+    Returns
+    -------
+    centers : (K, 3) float64
+
+    Raises
+    ------
+    FrameError
+        Repeated consecutive points, or a vanishing tangent (a cusp: the
+        curve doubles back on itself).
+    """
     P = as_points(P, "curve", min_rows=4)
     K = tol.SYNTH_AXIS_SAMPLES if K is None else int(K)
     u = chord_length(P)
@@ -245,21 +320,176 @@ def _arc_length_axis(P, initial_normal, K=None):
         raise FrameError("curve has repeated consecutive points; remove duplicates")
     sp = make_interp_spline(u, P, k=5 if len(P) > 5 else 3)
     ug = np.linspace(0.0, u[-1], tol.SYNTH_ARCLENGTH_QUADRATURE)
-    speed = np.linalg.norm(sp.derivative(1)(ug), axis=1)
-    if np.any(speed <= 0):
+    d = sp.derivative(1)(ug)
+    speed = np.linalg.norm(d, axis=1)
+    # a zero of the speed between two grid points shows as a reversed tangent
+    if np.any(speed <= 0) or np.any(np.einsum("ij,ij->i", d[1:], d[:-1]) <= 0):
         raise FrameError("curve tangent vanishes; the curve doubles back on itself")
     arc = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(ug))])
     target = np.linspace(0.0, arc[-1], K)
-    centers = sp(np.interp(target, arc, ug))
-    return _axis_from_centers(centers, initial_normal)
+    return sp(np.interp(target, arc, ug))
+
+
+def _arc_length_axis(P, initial_normal, K=None):
+    """Resample a curve uniformly in arc length and build its RMF axis (:class:`_Axis`)."""
+    return _axis_from_centers(_arc_length_samples(P, K), initial_normal)
 
 
 def _axis_from_centers(centers, initial_normal):
+    """The :class:`_Axis` through ``centers`` (K, 3), uniform in s, with U(0) from ``initial_normal``."""
     s = np.linspace(0.0, 1.0, len(centers))
-    d = make_interp_spline(s, centers, k=5).derivative(1)(s)
-    T = d / np.linalg.norm(d, axis=1)[:, None]
-    _, U, _ = rotation_minimizing_frames(centers, tangents=T, initial_normal=initial_normal)
+    _, U = _integrated_rmf(s, centers, initial_normal)
     return _Axis(s, centers, U)
+
+
+def _unit_tangents(spline, s):
+    """Unit tangents ``m'(s) / |m'(s)|`` of a spline at ``s`` (k,); (k, 3) float64."""
+    d = spline.derivative(1)(s)
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def _start_normal(T0, initial_normal):
+    """U(0): ``initial_normal`` projected across the unit tangent ``T0``, or :func:`perpendicular` of ``T0``.
+
+    Parameters
+    ----------
+    T0 : (3,) float64
+        Unit tangent at s = 0.
+    initial_normal : (3,) float64 or None
+
+    Returns
+    -------
+    (3,) float64
+        Unit, perpendicular to ``T0``.
+
+    Raises
+    ------
+    FrameError
+        Zero ``initial_normal``, or one parallel to ``T0``.
+    """
+    if initial_normal is None:
+        return perpendicular(T0)
+    r = unit(as_vector(initial_normal, "initial_normal"), "initial_normal")
+    r = r - (r @ T0) * T0
+    nr = float(np.linalg.norm(r))
+    if not nr > tol.FRAME_ORTHONORMAL:
+        raise FrameError("initial_normal is parallel to the first tangent; give a direction across the curve")
+    return r / nr
+
+
+def _unit_normals(T):
+    """One unit vector across each unit tangent (any will do: see :func:`_transport_maps`).
+
+    Parameters
+    ----------
+    T : (k, 3) float64
+
+    Returns
+    -------
+    (k, 3) float64
+        The coordinate axis least aligned with each row of ``T``, projected and normalised.
+    """
+    e = np.eye(3)[np.argmin(np.abs(T), axis=1)]
+    W = e - np.einsum("ij,ij->i", e, T)[:, None] * T
+    return W / np.linalg.norm(W, axis=1)[:, None]
+
+
+def _transport_maps(spline, s, T):
+    """Solution maps of the RMF equation over each sample interval: ``U(s[i+1]) = Phi[i] @ U(s[i])``.
+
+    The RMF (Bishop frame, parallel transport) equation ``dU/ds = -(U . T'(s)) T(s)``
+    keeps ``U . T`` and ``|U|`` constant, and two solutions keep their dot
+    product: it carries the plane across ``T(s[i])`` onto the plane across
+    ``T(s[i+1])`` by a rotation that keeps the orientation about T. So one
+    unit normal ``W`` per interval, integrated to ``X``, gives the whole map:
+    ``W -> X`` and ``T x W -> T x X``, i.e.
+    ``Phi[i] = X W^T + (T[i+1] x X)(T[i] x W)^T`` on vectors across ``T[i]``.
+
+    The spline's knots are among the samples, so on each interval the
+    right-hand side is smooth (one polynomial piece) and DOP853's error
+    estimate holds; all intervals are integrated at once, in the local variable
+    ``tau`` in [0, 1] (``s = s[i] + tau (s[i+1] - s[i])``). One trajectory
+    across all the pieces instead lets the steps straddle hundreds of knots,
+    and its error stalls near 1e-9 whatever the tolerance.
+
+    Parameters
+    ----------
+    spline : scipy.interpolate.BSpline
+        The axis m(s), at least C2.
+    s : (K,) float64
+        Increasing samples; the knots of ``spline`` must be among them.
+    T : (K, 3) float64
+        Unit tangents of ``spline`` at ``s``.
+
+    Returns
+    -------
+    Phi : (K - 1, 3, 3) float64
+
+    Raises
+    ------
+    FrameError
+        The tangent vanishes between samples, or the integration fails.
+    """
+    dm, ddm = spline.derivative(1), spline.derivative(2)
+    s0, h = s[:-1], np.diff(s)
+
+    def rhs(tau, y):
+        x = s0 + tau * h
+        d1, d2 = dm(x), ddm(x)
+        speed = np.sqrt(np.einsum("ij,ij->i", d1, d1))
+        if not np.all(speed > 0):
+            raise FrameError("axis tangent vanishes between samples; the curve doubles back on itself")
+        Tx = d1 / speed[:, None]
+        dT = (d2 - np.einsum("ij,ij->i", d2, Tx)[:, None] * Tx) / speed[:, None]  # T'(s)
+        U = y.reshape(-1, 3)
+        return (-(h * np.einsum("ij,ij->i", U, dT))[:, None] * Tx).ravel()  # d/dtau = h d/ds
+
+    W = _unit_normals(T[:-1])
+    sol = solve_ivp(rhs, (0.0, 1.0), W.ravel(), method="DOP853", rtol=tol.SYNTH_RMF_RTOL, atol=tol.SYNTH_RMF_ATOL,
+                    t_eval=[1.0])
+    if not sol.success:
+        raise FrameError(f"integration of the axis's rotation-minimizing frame failed: {sol.message}")
+    X = sol.y[:, -1].reshape(-1, 3)
+    drift = max(float(np.max(np.abs(np.einsum("ij,ij->i", X, T[1:])))),
+                float(np.max(np.abs(np.linalg.norm(X, axis=1) - 1.0))))
+    if not drift <= tol.SYNTH_RMF_DRIFT:  # the exact solution stays a unit normal
+        raise FrameError(f"the integrated rotation-minimizing frame drifted by {drift:.2g} from "
+                         "orthonormal; the axis is not smooth enough (check the curve points)")
+    return (np.einsum("ki,kj->kij", X, W)
+            + np.einsum("ki,kj->kij", np.cross(T[1:], X), np.cross(T[:-1], W)))
+
+
+def _integrated_rmf(s, centers, initial_normal):
+    """Ground-truth RMF of the quintic spline through ``centers`` at ``s`` (no vesselgp.curves code).
+
+    Parameters
+    ----------
+    s : (K,) float64
+        Uniform in [0, 1].
+    centers : (K, 3) float64
+        Axis samples at ``s``.
+    initial_normal : (3,) float64 or None
+        See :func:`_start_normal`.
+
+    Returns
+    -------
+    T, U : (K, 3) float64 each
+        Exact unit tangents of the spline and the RMF normals (solution of
+        :func:`_transport_maps` from U(0), re-orthonormalised against T).
+
+    Raises
+    ------
+    FrameError
+        Bad ``initial_normal``, a vanishing tangent or a failed integration.
+    """
+    m = make_interp_spline(s, centers, k=5)
+    T = _unit_tangents(m, s)
+    U = np.empty_like(T)
+    U[0] = _start_normal(T[0], initial_normal)
+    for i, Phi in enumerate(_transport_maps(m, s, T)):
+        U[i + 1] = Phi @ U[i]
+    U = U - np.einsum("ij,ij->i", U, T)[:, None] * T  # round-off only (checked in _transport_maps)
+    return T, U / np.linalg.norm(U, axis=1)[:, None]
 
 
 # ---------------------------------------------------------------------------
@@ -389,7 +619,8 @@ class GroundTruth:
         True perimeter-mean distance of the section to the centre (what paper
         Eq. 4 estimates).
     frames : (K, 3, 3) float64
-        Rows T, U, V of the RMF (double reflection) of the true axis.
+        Rows T, U, V of the RMF of the true axis: the solution of
+        ``dU/ds = -(U . T') T`` on its quintic spline (module docstring).
     alpha : (K,) float64
         Imposed material twist alpha(s) (radians, paper Fig. 1); 0 without twist.
     vertex_s : (n,) float64
@@ -596,10 +827,21 @@ def _check_topology(V, F, capped):
 
 
 def _as_alpha(twist):
+    """alpha(s) as a vectorised callable from None, a total twist Phi (alpha = Phi s) or a callable.
+
+    A callable's values are checked on every call: a non-finite twist raises
+    :class:`InvalidMeshError` instead of giving NaN vertices.
+    """
     if twist is None:
         return lambda s: np.zeros(np.shape(s))
     if callable(twist):
-        return lambda s: np.broadcast_to(np.asarray(twist(s), dtype=float), np.shape(s)).astype(float)
+        def alpha(s):
+            a = np.broadcast_to(np.asarray(twist(s), dtype=float), np.shape(s)).astype(float)
+            if not np.all(np.isfinite(a)):
+                raise InvalidMeshError("twist(s) must be finite for every s in [0, 1]")
+            return a
+
+        return alpha
     phi = float(twist)
     if not np.isfinite(phi):
         raise InvalidMeshError(f"twist must be finite, got {twist}")
@@ -614,10 +856,6 @@ def _resolve_curve(curve, initial_normal):
     if initial_normal is not None:
         initial_normal = as_vector(initial_normal, "initial_normal")
     return _arc_length_axis(P, initial_normal), name, units
-
-
-def _wrap(a):
-    return np.angle(np.exp(1j * a))
 
 
 def synthetic_vessel(curve, radius=1.5, *, ellipticity=1.0, ellipse_angle=0.0, bulges=(), twist=None,
@@ -662,7 +900,8 @@ def synthetic_vessel(curve, radius=1.5, *, ellipticity=1.0, ellipse_angle=0.0, b
     seed : int
         Seed of the noise.
     initial_normal : (3,) float64, optional
-        U at s = 0 (default as :func:`vesselgp.curves.rotation_minimizing_frames`).
+        U at s = 0, projected across the first tangent (default: the coordinate
+        axis least aligned with it, projected: :func:`vesselgp.rotations.perpendicular`).
     units : str, optional
         Overrides the unit label (``"mm"`` for aortic curves, else ``"unit"``).
 
@@ -673,7 +912,7 @@ def synthetic_vessel(curve, radius=1.5, *, ellipticity=1.0, ellipse_angle=0.0, b
     Raises
     ------
     VesselError
-        Bad curve, radius, bulge, ``ends`` or sizes; a section wider than the
+        Bad curve, initial normal, radius, twist, bulge, ``ends`` or sizes; a section wider than the
         local bend radius (the tube would fold over itself).
 
     Examples
@@ -685,36 +924,124 @@ def synthetic_vessel(curve, radius=1.5, *, ellipticity=1.0, ellipse_angle=0.0, b
     >>> bool(np.allclose(d, t.section_radius(t.vertex_s, t.vertex_theta)))
     True
     """
+    capped, n_around = _check_tube_options(ends, n_around)
+    axis, name, auto_units = _resolve_curve(curve, initial_normal)
+    units = auto_units if units is None else str(units)
+    section = _Section(radius, ellipticity, ellipse_angle, bulges)
+    alpha_fn = _as_alpha(twist)
+    radii = _true_radii(axis, section)
+    r_scale = float(np.mean(radii))
+    h = 2 * np.pi * r_scale / n_around  # the around spacing of the structured rings
+    spacing = h if spacing is None else float(spacing)
+    X, F, rings = _structured_tube(axis, section, alpha_fn, n_around, spacing, remesh, seed, capped)
+    log.debug("structured %s tube: %d rings x %d, length %.3g", name, len(rings.s) // n_around, n_around,
+              axis.length)
+    if remesh:
+        te = h if target_edge is None else float(target_edge)
+        X, F, vt = _remeshed_truth(axis, section, alpha_fn, X, F, te, capped, r_scale)
+    else:
+        vt = _ring_truth(section, rings, capped)
+    loops = _check_topology(X, F, capped)
+    if not capped:  # open ends: the boundary loops lie exactly on s = 0 and 1
+        for lp in loops:
+            vt.s[lp] = np.round(np.mean(vt.s[lp]))
+    X, noise_local = _surface_vertices(axis, section, alpha_fn, vt, F, radii, noise, seed)
+    T, U, V = axis.frames(axis.s)
+    truth = GroundTruth(
+        s=axis.s, length=axis.length, centers=axis.centers, radii=radii, frames=np.stack([T, U, V], axis=1),
+        alpha=alpha_fn(axis.s), vertex_s=vt.s, vertex_theta=wrap_angle(vt.theta), vertex_offset=vt.offset,
+        vertex_on_cap=vt.on_cap, vertex_noise=noise_local, name=name, units=units,
+        _section=section, _alpha_fn=alpha_fn,
+    )
+    return SyntheticVessel(V=np.ascontiguousarray(X), F=F, truth=truth)
+
+
+class _VertexTruth(NamedTuple):
+    """Material coordinates of the mesh vertices (the fields of :class:`GroundTruth` named ``vertex_*``).
+
+    Attributes
+    ----------
+    s : (n,) float64
+    theta : (n,) float64
+        Not yet wrapped.
+    on_cap : (n,) bool
+    offset : (n, 2) float64
+    """
+
+    s: np.ndarray
+    theta: np.ndarray
+    on_cap: np.ndarray
+    offset: np.ndarray
+
+
+def _check_tube_options(ends, n_around):
+    """``(capped, n_around)`` from :func:`synthetic_vessel`'s ``ends`` and ``n_around``, validated."""
     if ends not in ("open", "capped"):
         raise VesselError(f"ends must be 'open' or 'capped', got {ends!r}")
     n_around = int(n_around)
     if n_around < 6:
         raise InvalidMeshError(f"n_around must be >= 6, got {n_around}")
-    capped = ends == "capped"
-    axis, name, auto_units = _resolve_curve(curve, initial_normal)
-    units = auto_units if units is None else str(units)
-    section = _Section(radius, ellipticity, ellipse_angle, bulges)
-    alpha_fn = _as_alpha(twist)
-    s_axis = axis.s
-    radii = section.mean_radius(s_axis)
+    return ends == "capped", n_around
+
+
+def _true_radii(axis, section):
+    """Perimeter-mean radius of the section at the axis samples, (K,) float64.
+
+    Raises
+    ------
+    InvalidMeshError
+        A non-positive or non-finite radius, or a section wider than
+        :data:`vesselgp.tolerances.SYNTH_MAX_FOLD` bend radii (the tube folds).
+    """
+    radii = section.mean_radius(axis.s)
     if not np.all(np.isfinite(radii)) or np.any(radii <= 0):
         raise InvalidMeshError("radius must be positive and finite along the whole curve")
-    fold = section.max_radius(s_axis) * axis.curvature(s_axis)
+    fold = section.max_radius(axis.s) * axis.curvature(axis.s)
     if np.max(fold) >= tol.SYNTH_MAX_FOLD:
         raise InvalidMeshError(
             f"section radius reaches {np.max(fold):.2f} x the bend radius: the tube folds over itself; "
             "use a smaller radius or a gentler curve"
         )
-    L = axis.length
-    h = 2 * np.pi * float(np.mean(radii)) / n_around
-    spacing = h if spacing is None else float(spacing)
+    return radii
+
+
+class _Rings(NamedTuple):
+    """Material coordinates of the structured ring vertices: ring k, point j at index k n_around + j."""
+
+    s: np.ndarray
+    theta: np.ndarray
+
+
+def _structured_tube(axis, section, alpha_fn, n_around, spacing, remesh, seed, capped):
+    """The ring mesh of the tube (before any remeshing).
+
+    Parameters
+    ----------
+    spacing : float
+        Ring spacing (mesh units); rings at uniform s, both ends included.
+    remesh : bool
+        Jitter the inner rings (seeded) so the remesher cannot settle on a
+        ring lattice; the vertices then are not at ``rings``.
+
+    Returns
+    -------
+    X : (n, 3) float64
+        Ring vertices, then the two cap centres when ``capped``.
+    F : (m, 3) int64
+    rings : _Rings
+        Un-jittered (s, theta) of the ring vertices, (n_rings n_around,) each.
+
+    Raises
+    ------
+    InvalidMeshError
+        Non-positive ``spacing``.
+    """
     if not spacing > 0:
         raise InvalidMeshError(f"spacing must be positive, got {spacing}")
-    n_rings = max(2, int(np.ceil(L / spacing)) + 1)
+    n_rings = max(2, int(np.ceil(axis.length / spacing)) + 1)
     sr = np.repeat(np.linspace(0, 1, n_rings), n_around)
     th = np.tile(2 * np.pi * np.arange(n_around) / n_around, n_rings)
     if remesh:
-        # jitter the inner rings (seeded) so the remesher cannot settle on a ring lattice
         rng = np.random.default_rng([int(seed), 7])
         inner = (sr > 0) & (sr < 1)
         js = rng.uniform(-1, 1, (2, len(sr))) * tol.SYNTH_REMESH_JITTER
@@ -726,47 +1053,64 @@ def synthetic_vessel(curve, radius=1.5, *, ellipticity=1.0, ellipse_angle=0.0, b
     F = _ring_mesh(n_rings, n_around, capped)
     if capped:
         X = np.concatenate([X, axis.point(np.array([0.0, 1.0]))])
-    log.debug("structured %s tube: %d rings x %d, length %.3g", name, n_rings, n_around, L)
+    return X, F, _Rings(sr, th)
 
-    r_scale = float(np.mean(radii))
-    if remesh:
-        te = h if target_edge is None else float(target_edge)
-        if not te > 0:
-            raise InvalidMeshError(f"target_edge must be positive, got {target_edge}")
-        X, F = _remesh(X, F, te)
-        s, theta, on_cap, offset = _truth_from_positions(axis, section, alpha_fn, X, capped, r_scale)
-    else:
-        s = np.concatenate([sr, [0.0, 1.0]]) if capped else sr
-        theta = np.concatenate([th, [0.0, 0.0]]) if capped else th
-        on_cap = np.zeros(len(s), bool)
-        on_cap[len(sr):] = True
-        rho = section(s, theta)
-        offset = np.c_[rho * np.cos(theta), rho * np.sin(theta)]
-        offset[on_cap] = 0.0
-    loops = _check_topology(X, F, capped)
-    if not capped:  # open ends: the boundary loops lie exactly on s = 0 and 1
-        for lp in loops:
-            s[lp] = np.round(np.mean(s[lp]))
-    X = _place(axis, section, alpha_fn, s, theta, offset=offset)
+
+def _ring_truth(section, rings, capped):
+    """:class:`_VertexTruth` of the un-remeshed ring mesh (cap centres last, offset 0)."""
+    s = np.concatenate([rings.s, [0.0, 1.0]]) if capped else rings.s
+    theta = np.concatenate([rings.theta, [0.0, 0.0]]) if capped else rings.theta
+    on_cap = np.zeros(len(s), bool)
+    on_cap[len(rings.s):] = True
+    rho = section(s, theta)
+    offset = np.c_[rho * np.cos(theta), rho * np.sin(theta)]
+    offset[on_cap] = 0.0
+    return _VertexTruth(s, theta, on_cap, offset)
+
+
+def _remeshed_truth(axis, section, alpha_fn, X, F, target_edge, capped, r_scale):
+    """Isotropic remeshing of the ring mesh and the :class:`_VertexTruth` of the new vertices.
+
+    Returns
+    -------
+    X : (n, 3) float64
+        Remeshed vertices (not yet on the exact surface).
+    F : (m, 3) int64
+    truth : _VertexTruth
+
+    Raises
+    ------
+    InvalidMeshError
+        Non-positive ``target_edge``.
+    """
+    if not target_edge > 0:
+        raise InvalidMeshError(f"target_edge must be positive, got {target_edge}")
+    X, F = _remesh(X, F, target_edge)
+    return X, F, _truth_from_positions(axis, section, alpha_fn, X, capped, r_scale)
+
+
+def _surface_vertices(axis, section, alpha_fn, vt, F, radii, noise, seed):
+    """Vertices placed exactly on the surface at ``vt``, then moved by seeded normal noise.
+
+    Returns
+    -------
+    X : (n, 3) float64
+    noise_local : (n, 3) float64
+        The noise in local material coordinates (zeros without noise).
+    """
+    X = _place(axis, section, alpha_fn, vt.s, vt.theta, offset=vt.offset)
     noise_local = np.zeros((len(X), 3))
     if noise:
-        noise_local = _noise(X, F, s, radii, axis, alpha_fn, float(noise), seed)
-        X = _place(axis, section, alpha_fn, s, theta, offset=offset, noise=noise_local)
-    T, U, Vv = axis.frames(s_axis)
-    truth = GroundTruth(
-        s=s_axis, length=L, centers=axis.centers, radii=radii, frames=np.stack([T, U, Vv], axis=1),
-        alpha=alpha_fn(s_axis), vertex_s=s, vertex_theta=_wrap(theta), vertex_offset=offset,
-        vertex_on_cap=on_cap, vertex_noise=noise_local, name=name, units=units,
-        _section=section, _alpha_fn=alpha_fn,
-    )
-    return SyntheticVessel(V=np.ascontiguousarray(X), F=F, truth=truth)
+        noise_local = _noise(X, F, vt.s, radii, axis, alpha_fn, float(noise), seed)
+        X = _place(axis, section, alpha_fn, vt.s, vt.theta, offset=vt.offset, noise=noise_local)
+    return X, noise_local
 
 
 def _truth_from_positions(axis, section, alpha_fn, X, capped, r_scale):
-    """Exact (s, theta) of remeshed vertices by projection onto the true axis."""
+    """Exact :class:`_VertexTruth` of remeshed vertices by projection onto the true axis."""
     s = axis.project(X)
     m0, m1 = axis.point(np.array([0.0, 1.0]))
-    T01, U01, V01 = axis.frames(np.array([0.0, 1.0]))
+    T01 = axis.frames(np.array([0.0, 1.0]))[0]
     d0 = (X - m0) @ T01[0]
     d1 = (X - m1) @ T01[1]
     eps = tol.SYNTH_END_PLANE * r_scale
@@ -781,7 +1125,7 @@ def _truth_from_positions(axis, section, alpha_fn, X, capped, r_scale):
     s[end1] = 1.0
     T, U, V = axis.frames(s)
     D = X - axis.point(s)
-    theta = transport_angle(T, U, D) - alpha_fn(s)
+    theta = np.arctan2(np.sum(D * V, axis=1), np.sum(D * U, axis=1)) - alpha_fn(s)  # angle about T from U
     rho = section(s, theta)
     offset = np.c_[rho * np.cos(theta), rho * np.sin(theta)]
     on_cap = np.zeros(len(X), bool)
@@ -789,7 +1133,7 @@ def _truth_from_positions(axis, section, alpha_fn, X, capped, r_scale):
         radial = np.linalg.norm(D - np.sum(D * T, axis=1)[:, None] * T, axis=1)
         on_cap = (end0 | end1) & (radial < tol.SYNTH_RIM_FRACTION * rho)
         offset[on_cap] = radial[on_cap, None] * np.c_[np.cos(theta[on_cap]), np.sin(theta[on_cap])]
-    return s, theta, on_cap, offset
+    return _VertexTruth(s, theta, on_cap, offset)
 
 
 def _noise(X, F, s, radii, axis, alpha_fn, noise, seed):
@@ -812,22 +1156,6 @@ def _noise(X, F, s, radii, axis, alpha_fn, noise, seed):
 # ---------------------------------------------------------------------------
 # Analytic deformation
 # ---------------------------------------------------------------------------
-
-
-def _min_rotation(a, b, x):
-    """Rotate ``x`` by the minimal rotation taking unit ``a`` to unit ``b``."""
-    axis = np.cross(a, b)
-    sn, c = np.linalg.norm(axis), float(a @ b)
-    if sn < tol.STRAIGHT_SIN:
-        if c > 0:
-            return x
-        p = np.zeros(3)
-        p[int(np.argmin(np.abs(a)))] = 1.0
-        p -= (p @ a) * a
-        p /= np.linalg.norm(p)
-        return 2 * (x @ p) * p - x  # half turn about p
-    axis = axis / sn
-    return x * c + np.cross(axis, x) * sn + axis * (axis @ x) * (1 - c)
 
 
 def deform_synthetic(vessel, curve=None, twist=None, *, initial_normal=None):
@@ -877,16 +1205,14 @@ def deform_synthetic(vessel, curve=None, twist=None, *, initial_normal=None):
         P = named_curve(curve)
     else:
         P = as_points(curve, "curve", min_rows=4)
+    c = _arc_length_samples(P)
+    c = c[0] + t.length / _polyline_length(c) * (c - c[0])  # scaled to the rest length
     if initial_normal is None:
-        tmp = _arc_length_axis(P, None)
-        T0 = tmp.frames(np.array([0.0]))[0][0]
-        initial_normal = _min_rotation(t.frames[0, 0], T0, t.frames[0, 1])
+        T0 = _unit_tangents(make_interp_spline(np.linspace(0.0, 1.0, len(c)), c, k=5), 0.0)
+        initial_normal = minimal_rotation(t.frames[0, 0], T0).apply(t.frames[0, 1])
     else:
         initial_normal = as_vector(initial_normal, "initial_normal")
-    axis = _arc_length_axis(P, initial_normal)
-    scale = t.length / axis.length
-    c = axis.centers
-    axis = _axis_from_centers(c[0] + scale * (c - c[0]), initial_normal)
+    axis = _axis_from_centers(c, initial_normal)
     return _place(axis, t._section, _as_alpha(twist), t.vertex_s, t.vertex_theta,
                   offset=t.vertex_offset, noise=t.vertex_noise)
 
@@ -960,12 +1286,6 @@ def _end_loop(vessel, at):
     return min(loops, key=lambda lp: abs(np.mean(vessel.truth.vertex_s[lp]) - at))
 
 
-def _rot(axis, angle):
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
-
-
 def paper_case(n, *, pre_rotation=0.0, resolution=1.0, seed=0, noise=0.0):
     """One of the paper's two joining test cases (Section 3, Figs. 2-3).
 
@@ -1015,7 +1335,7 @@ def paper_case(n, *, pre_rotation=0.0, resolution=1.0, seed=0, noise=0.0):
         x = np.linspace(0, L, 400)
         bow = 0.8 * np.sin(np.pi * x / L)
         left = np.c_[x, np.zeros_like(x), bow]
-        R = _rot([0, 0, 1], np.deg2rad(10.0))
+        R = rotation_matrix([0, 0, 1], np.deg2rad(10.0))
         right = (np.c_[x, np.zeros_like(x), -bow] @ R.T) + [L + 4 * r, 1.5 * r, 0.0]
         na = max(12, int(round(48 * resolution)))
         kw = dict(radius=r, n_around=na, noise=noise, seed=seed, units="mm")
@@ -1029,7 +1349,7 @@ def paper_case(n, *, pre_rotation=0.0, resolution=1.0, seed=0, noise=0.0):
         aorta_r = lambda s: 15.0 - 3.0 * np.clip((s - 0.2) / 0.35, 0.0, 1.0)  # noqa: E731
         vessel = synthetic_vessel("aortic_arch", radius=aorta_r, n_around=na, noise=noise, seed=seed,
                                   initial_normal=[1, 0, 0])
-        Rt = _rot([1, 1, 0], np.deg2rad(14.0))
+        Rt = rotation_matrix([1, 1, 0], np.deg2rad(14.0))
         root = named_curve("aortic_root")
         root = root - root[-1]  # top (sinotubular junction) at the origin
         root = root @ Rt.T + [6.0, -6.0, -10.0]
@@ -1046,7 +1366,7 @@ def paper_case(n, *, pre_rotation=0.0, resolution=1.0, seed=0, noise=0.0):
     tangent = fr[0, 0] if other_at == 0.0 else -fr[0, 0]
     a = float(other.truth.twist(other_at))
     normal = np.cos(a) * fr[0, 1] + np.sin(a) * fr[0, 2]  # the other vessel's material U
-    normal = _rot(tangent, float(pre_rotation)) @ normal
+    normal = rotate(normal, tangent, float(pre_rotation))
     normal -= (normal @ tangent) * tangent
     normal /= np.linalg.norm(normal)
     if np.intersect1d(fixed, moving).size:

@@ -125,6 +125,13 @@ SYNTH_NEWTON_STEPS = 4
 SYNTH_END_PLANE = 1e-6
 #: An end-plane vertex closer to the centre than this fraction of the section radius is on the cap, not the rim.
 SYNTH_RIM_FRACTION = 0.98
+#: Relative / absolute tolerance of DOP853 integrating the ground-truth RMF ODE
+#: dU/ds = -(U . T') T over each sample interval of the true axis (independent of vesselgp.curves).
+SYNTH_RMF_RTOL = 1e-11
+SYNTH_RMF_ATOL = 1e-12
+#: Largest |X . T| or ||X| - 1| of a unit normal integrated over one sample interval
+#: (about 1e-15 when the integration works); more raises FrameError.
+SYNTH_RMF_DRIFT = 1e-9
 #: Iterations of pymeshlab's isotropic explicit remeshing.
 SYNTH_REMESH_ITERATIONS = 5
 #: Dihedral angle (degrees) above which the remesher keeps an edge as a feature (cap rims).
