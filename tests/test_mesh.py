@@ -14,6 +14,7 @@ from vesselgp.mesh import (
     VesselEnd,
     clean_mesh,
     mesh_scale,
+    mesh_topology,
     select_ends,
     vessel_ends,
 )
@@ -181,6 +182,21 @@ def test_clean_mesh_coherent_input_is_kept_or_turned_outward():
     V3, F3, rep3 = clean_mesh(V, F[:, [0, 2, 1]])  # coherent but inward: every face turns
     assert rep3.faces_flipped == len(F)
     np.testing.assert_array_equal(F3, F)
+
+
+def test_clean_mesh_counts_flips_of_kept_faces_only():
+    V, F = tube(n=12, rings=4)
+    tet0 = len(V)
+    V = np.vstack([V, [[10, 10, 10], [10.1, 10, 10], [10, 10.1, 10], [10, 10, 10.1]]])
+    tet = tet0 + np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 3, 2]])  # its last face flipped
+    _, F2, rep = clean_mesh(V, np.vstack([F, tet]))
+    assert rep.components_removed == 1 and len(F2) == len(F)
+    assert rep.faces_flipped == 0  # the flipped face was in the dropped component
+    np.testing.assert_array_equal(F2, F)
+    # kept, it is counted: one face of the tetrahedron flipped, then all four outward or none
+    _, F3, rep3 = clean_mesh(V[tet0:], tet - tet0)
+    assert rep3.faces_flipped in (1, 3)
+    assert mesh_topology(F3).is_coherent and mesh_topology(F3).is_closed
 
 
 def test_clean_mesh_keep_largest_false_and_errors():

@@ -15,9 +15,9 @@ from .curves import rotation_minimizing_frames, curve_tangents, frenet  # noqa: 
 # Each stage adds its public names on its own line below.
 from .viz import torsion_colors, render_mesh, plot_energy_curve  # noqa: F401
 from .io import read_mesh, write_mesh  # noqa: F401
-from .mesh import clean_mesh, vessel_ends, mesh_scale, CleanReport, VesselEnd, MeshScale  # noqa: F401
+from .mesh import clean_mesh, vessel_ends, mesh_scale, stitch, CleanReport, VesselEnd, MeshScale, MeshTopology  # noqa: F401
 from .deform import Frame, deform_vessel  # noqa: F401
-from .join import JoinProblem, JoinResult, minimize_torsion, stitch  # noqa: F401
+from .join import JoinProblem, JoinResult, minimize_torsion  # noqa: F401
 from .fit import GeneralizedCylinder, fit_generalized_cylinder  # noqa: F401
 from .torsion import TorsionMeter, TorsionProfile, measure_torsion  # noqa: F401
 from . import synthetic  # noqa: F401

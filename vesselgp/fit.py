@@ -46,7 +46,8 @@ from .axis import (Axis, checked_solution, circle_fit_correction, difference_mat
                    interp_frames, local_coords)
 from .curves import chord_length, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError
-from .mesh import mesh_scale, select_ends, vessel_ends
+from .inside import check_axis_inside
+from .mesh import mesh_scale, mesh_topology, select_ends, vessel_ends
 
 log = logging.getLogger(__name__)
 
@@ -191,11 +192,11 @@ def _robust_weights(s, local, jac, area, radii, inside):
 # ----------------------------------------------------------------------------- initialisation
 
 
-def _resolve_ends(V, F, ends):
+def _resolve_ends(V, F, ends, topo):
     """The two ends to fit between, their indices, and how many ends the mesh has."""
     if ends is not None and len(ends) == 2 and all(hasattr(e, "center") for e in ends):
         return ends[0], ends[1], (-1, -1), 2
-    all_ends = vessel_ends(V, F)
+    all_ends = vessel_ends(V, F, topology=topo)
     e0, e1 = select_ends(all_ends, ends)
     i0 = next(i for i, e in enumerate(all_ends) if e is e0)
     i1 = next(i for i, e in enumerate(all_ends) if e is e1)
@@ -279,14 +280,9 @@ def _check_aspect(length, radius):
         )
 
 
-def _check_connected(V, F):
+def _check_connected(topo):
     """Raise :class:`InvalidMeshError` when the mesh has several connected pieces."""
-    from scipy.sparse.csgraph import connected_components
-
-    n = len(V)
-    E = F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    G = sp.coo_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n))
-    ncomp = connected_components(G, directed=False)[0]
+    ncomp = topo.vertex_components[0]
     if ncomp > 1:
         raise InvalidMeshError(
             f"mesh has {ncomp} connected components; run vesselgp.clean_mesh (keeps the largest) "
@@ -413,9 +409,10 @@ def fit_generalized_cylinder(
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
     _check_options(n_nodes, lam, mu, max_iter)
     _check_used(V, F)
-    _check_connected(V, F)
+    topo = mesh_topology(F, len(V))  # one edge table for the checks, the ends and the axis check
+    _check_connected(topo)
     Fg = _nondegenerate_faces(V, F)
-    e0, e1, end_ids, n_ends = _resolve_ends(V, F, ends)
+    e0, e1, end_ids, n_ends = _resolve_ends(V, F, ends, topo)
     if initial_normal is not None:
         initial_normal = as_vector(initial_normal, "initial_normal")
     _log_scale(V, F, e0, e1)
@@ -426,7 +423,7 @@ def fit_generalized_cylinder(
     # (the initial axis of such a stub is not reliable).
     chord = float(np.linalg.norm(np.asarray(e1.center) - np.asarray(e0.center)))
     _check_aspect(chord, rscale)
-    area, end_region = _data_weights(V, Fg, e0, e1, n_ends, rscale)
+    wall_area, area, end_region = _data_weights(V, Fg, e0, e1, n_ends, rscale)
     nodes, s_prev, L0 = _initial_nodes(V, Fg, e0, e1, np.where(end_region, 0.0, area), chord, rscale, n_nodes)
     K = len(nodes)
     sub = thinned(len(V), tol.GC_MAX_FIT_VERTICES)
@@ -446,7 +443,9 @@ def fit_generalized_cylinder(
         s_raw = axis.project(V, it.s, None)
     else:
         s_raw = axis.project(V, s_prev, 3.0 / (K - 1) + 2.0 * rscale / L0)
-    return _cylinder(axis, V, s_raw, end_region, area, it, mu, lam, end_ids)
+    gc = _cylinder(axis, V, s_raw, end_region, area, it, mu, lam, end_ids)
+    check_axis_inside(V, F, gc.s, gc.centers, gc.radii, area=wall_area, loops=topo.boundary_loops)
+    return gc
 
 
 @dataclass(frozen=True)
@@ -522,19 +521,20 @@ def _check_used(V, F):
 
 
 def _data_weights(V, Fg, e0, e1, n_ends, rscale):
-    """Voronoi areas (Eq. 1's weights; zero off the path between the ends) and the cap vertices.
+    """Voronoi areas of the wall, Eq. 1's weights (zero off the path between the ends), the cap vertices.
 
     The areas use the faces with a well-defined area (zero-area faces have
     infinite cotangent weights).
     """
-    area = igl.massmatrix(V, Fg, igl.MASSMATRIX_TYPE_VORONOI).diagonal().copy()
+    wall_area = igl.massmatrix(V, Fg, igl.MASSMATRIX_TYPE_VORONOI).diagonal().copy()
     end_region = np.zeros(len(V), bool)
     for e in (e0, e1):
         if getattr(e, "kind", "open") != "open":
             end_region[np.asarray(e.vertices, np.int64)] = True
+    area = wall_area
     if n_ends > 2:
-        area = np.where(_path_mask(V, Fg, e0, e1, rscale), area, 0.0)
-    return area, end_region
+        area = np.where(_path_mask(V, Fg, e0, e1, rscale), wall_area, 0.0)
+    return wall_area, area, end_region
 
 
 def _initial_nodes(V, Fg, e0, e1, area, chord, rscale, n_nodes):

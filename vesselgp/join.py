@@ -23,7 +23,6 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, field
 
-import igl
 import nlopt
 import numpy as np
 
@@ -32,11 +31,14 @@ from ._validate import as_mesh
 from .deform import Frame, RodDeformer, as_vertex_ids
 from .errors import EndsError, FrameError, MismatchError, OptimizationError
 from .fit import fit_generalized_cylinder
+from .mesh import stitch
 from .torsion import TorsionMeter, TorsionProfile
 
 log = logging.getLogger(__name__)
 
 __all__ = ["Frame", "JoinProblem", "JoinResult", "minimize_torsion", "stitch"]
+
+# stitch (vesselgp.mesh.stitch) and Frame (vesselgp.deform) are re-exported: joining uses both
 
 _NLOPT_NAMES = {
     1: "SUCCESS", 2: "STOPVAL_REACHED", 3: "FTOL_REACHED", 4: "XTOL_REACHED", 5: "MAXEVAL_REACHED",
@@ -372,120 +374,3 @@ def _polish(f, alg, algorithm, centre, xtol, max_evals, initial_step):
         raise
     except (RuntimeError, ValueError, MemoryError) as exc:
         raise OptimizationError(f"NLopt {algorithm} failed: {exc}; try algorithm='LN_COBYLA'") from None
-
-
-# ----------------------------------------------------------------------------- stitching
-
-
-def _ordered_loop(F, ids, name):
-    """The boundary loop of ``F`` made of ``ids``, ordered along the faces' boundary half-edges."""
-    ids = np.asarray(ids, np.int64).reshape(-1)
-    want = set(ids.tolist())
-    for lp in igl.boundary_loop_all(F):
-        lp = np.asarray(lp, np.int64)
-        if set(lp.tolist()) == want:
-            break
-    else:
-        raise EndsError(f"{name} ids are not one boundary loop of their mesh; give the ids of an open end ring")
-    # orient so that (lp[i], lp[i+1]) is a directed edge of some face
-    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    directed = set(map(tuple, E.tolist()))
-    if (int(lp[0]), int(lp[1])) not in directed:
-        lp = lp[::-1]
-    return lp
-
-
-def _arc_param(P):
-    seg = np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1)
-    c = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
-    return c / seg.sum()
-
-
-def stitch(V, F, moving_loop_ids, other_V, other_F, other_loop_ids):
-    """Bridge the joined end ring to the other vessel's end ring: one mesh for export.
-
-    Both loops are parameterised by normalised arc length from aligned starts
-    (the other loop's start is the vertex at the angle, about the moving loop's
-    axis, closest to the moving loop's first vertex) and zipped into a triangle
-    strip that advances on whichever loop is behind, so loops of different
-    vertex counts are joined without new vertices or T-junctions. The strip is
-    oriented consistently with ``F``; ``other_F`` is flipped if its
-    orientation disagrees.
-
-    Parameters
-    ----------
-    V : (n, 3) float64
-        Deformed vessel (e.g. :attr:`JoinResult.V`).
-    F : (m, 3) int64
-    moving_loop_ids : (q,) int
-        Its joined end ring (a boundary loop of ``F``).
-    other_V : (n2, 3) float64
-    other_F : (m2, 3) int64
-    other_loop_ids : (r,) int
-        The other vessel's end ring (a boundary loop of ``other_F``).
-
-    Returns
-    -------
-    V : (n + n2, 3) float64
-    F : (m + m2 + q + r, 3) int64
-        ``F``, then ``other_F`` (offset by n), then the strip.
-
-    Raises
-    ------
-    EndsError
-        When the ids are not boundary loops.
-
-    Examples
-    --------
-    >>> from vesselgp.synthetic import synthetic_vessel
-    >>> a = synthetic_vessel("straight", n_around=8, remesh=False)
-    >>> b = synthetic_vessel([[0, 0, 31], [0, 0, 41], [0, 0, 51], [0, 0, 61]], n_around=12, remesh=False)
-    >>> Vj, Fj = stitch(a.V, a.F, np.arange(len(a.V) - 8, len(a.V)), b.V, b.F, np.arange(12))
-    >>> len(Fj) == len(a.F) + len(b.F) + 20, len(igl.boundary_loop_all(Fj))
-    (True, 2)
-    """
-    V, F = as_mesh(V, F)
-    W, G = as_mesh(other_V, other_F)
-    G = G.copy()
-    A = _ordered_loop(F, moving_loop_ids, "moving_loop_ids")
-    B = _ordered_loop(G, other_loop_ids, "other_loop_ids")
-    PA, PB = V[A], W[B]
-    ca = PA.mean(axis=0)
-    nA = np.sum(np.cross(PA - ca, np.roll(PA, -1, axis=0) - ca), axis=0)
-    nA /= np.linalg.norm(nA)
-    nB = np.sum(np.cross(PB - PB.mean(0), np.roll(PB, -1, axis=0) - PB.mean(0)), axis=0)
-    # a consistently oriented joined tube has the two boundary loops turning opposite ways about the axis
-    if nB @ nA > 0:
-        log.warning("other_F is oriented opposite to F; flipping it for a consistent joined mesh")
-        G = G[:, ::-1].copy()
-        B = B[::-1]
-        PB = W[B]
-    B = B[::-1]  # traverse B in A's rotational sense
-    PB = W[B]
-    e1 = PA[0] - ca
-    e1 -= (e1 @ nA) * nA
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(nA, e1)
-    dB = PB - ca
-    angB = np.arctan2(dB @ e2, dB @ e1)
-    k = int(np.argmin(np.abs(angB)))
-    B = np.roll(B, -k)
-    PB = W[B]
-    ta, tb = _arc_param(PA), _arc_param(PB)
-    na, nb = len(A), len(B)
-    ia = ib = 0
-    tri = []
-    off = len(V)
-    while ia < na or ib < nb:
-        ta_next = ta[ia + 1] if ia + 1 < na else 1.0
-        tb_next = tb[ib + 1] if ib + 1 < nb else 1.0
-        a, a1 = A[ia % na], A[(ia + 1) % na]
-        b, b1 = B[ib % nb] + off, B[(ib + 1) % nb] + off
-        if ib >= nb or (ia < na and ta_next <= tb_next):
-            tri.append((a1, a, b))  # uses A's edge reversed
-            ia += 1
-        else:
-            tri.append((a, b, b1))
-            ib += 1
-    S = np.array(tri, np.int64)
-    return np.concatenate([V, W]), np.concatenate([F, G + off, S])

@@ -30,8 +30,8 @@ from .errors import MismatchError, VesselError
 from .fit import fit_generalized_cylinder
 from .io import (read_case, read_mesh, to_json, write_case, write_csv, write_json, write_mesh,
                  write_polyline)
-from .join import JoinProblem, minimize_torsion, stitch
-from .mesh import clean_mesh, mesh_scale
+from .join import JoinProblem, minimize_torsion
+from .mesh import clean_mesh, mesh_scale, stitch
 from .synthetic import deform_synthetic, paper_case, synthetic_vessel
 from .torsion import TorsionMeter
 from .viz import plot_energy_curve, plot_torsion_profile, render_mesh, torsion_colors

@@ -88,6 +88,16 @@ GC_NEWTON_STEPS = 3
 #: Dense samples of the axis per node spacing, used to project vertices onto the axis.
 GC_SAMPLES_PER_NODE = 8
 
+#: The axis check (vesselgp.inside): surface samples (an evenly thinned vertex subset)
+#: for the point-cloud winding number and the wall distance.
+INSIDE_SAMPLES = 3000
+#: |winding number| below which an axis sample is outside the (closed) surface.
+INSIDE_WINDING = 0.5
+#: An axis sample nearer the wall than this fraction of the local radius grazes it.
+INSIDE_CLEARANCE = 0.2
+#: Printed coordinates resolve this fraction of the mesh's bounding-box diagonal.
+PRINT_RESOLUTION = 1e-4
+
 #: Vessel must be at least this many mean diameters long.
 MIN_ASPECT = 1.0
 
@@ -212,6 +222,9 @@ CAP_MIN_RADIUS_EDGES = 2.0
 ENDS_MIN_RING = 3
 #: A rounded end's region: vertices within this many end radii (geodesic) of its tip.
 ENDS_ROUNDED_REGION = 0.5
+#: An end narrower than this fraction of the second-widest end may be a hole, not an end
+#: (select_ends says so when it has to choose).
+ENDS_HOLE_RADIUS_FRACTION = 0.5
 #: End radii closer than this (relative) are ties when ordering ends.
 ENDS_TIE_RTOL = 1e-6
 #: Units guess: a bounding-box diagonal below this suggests metres (mm vessels span 10-500).

@@ -1,0 +1,436 @@
+"""Connectivity of a triangle mesh, computed once: :class:`MeshTopology`.
+
+One sort of the faces' corner edges gives every edge table the mesh stage
+needs: the unique undirected edges, the edge of each face corner, how many
+faces use each edge and in which direction, the two faces of each interior
+edge, boundary edges and ordered boundary loops, vertex adjacency and
+connected components. :func:`vesselgp.clean_mesh`, :func:`vesselgp.vessel_ends`
+and :func:`vesselgp.mesh.stitch` all read these tables from one object.
+
+Half-edges are numbered face-major: half-edge ``h = 3 f + i`` runs from
+``F[f, i]`` to ``F[f, (i + 1) % 3]``.
+"""
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from ..errors import InvalidMeshError
+
+__all__ = ["MeshTopology", "mesh_topology"]
+
+
+def _as_faces(F, n_vertices):
+    """Validated (m, 3) int64 faces and the vertex count, or raise :class:`InvalidMeshError`."""
+    try:
+        Fa = np.asarray(F)
+    except (TypeError, ValueError) as exc:
+        raise InvalidMeshError(f"F must be an integer (m, 3) array: {exc}") from None
+    if Fa.ndim != 2 or Fa.shape[1] != 3:
+        raise InvalidMeshError(f"F must have shape (m, 3), got {Fa.shape}")
+    if Fa.size and not np.issubdtype(Fa.dtype, np.integer) and (
+            not np.issubdtype(Fa.dtype, np.floating) or np.any(Fa != np.round(Fa))):
+        raise InvalidMeshError("F must hold integer vertex indices")
+    Fa = np.ascontiguousarray(Fa, dtype=np.int64)
+    top = int(Fa.max()) + 1 if Fa.size else 0
+    n = top if n_vertices is None else int(n_vertices)
+    if Fa.size and (Fa.min() < 0 or top > n):
+        raise InvalidMeshError(
+            f"F indexes vertices in [{Fa.min()}, {top - 1}] but the mesh has {n} vertices")
+    return Fa, n
+
+
+class MeshTopology:
+    """Edges, adjacency, boundary loops and components of one triangle mesh.
+
+    Built from the faces alone (geometry enters only through the methods that
+    take ``V``). The edge table is computed on construction from one stable
+    sort of the corner edges' int64 keys ``min * n + max``; everything else is
+    computed on first use and cached. The object describes ``F`` as it was
+    when built: do not modify ``F`` afterwards.
+
+    Parameters
+    ----------
+    F : (m, 3) int64
+        Triangles, C-contiguous and already validated (use
+        :meth:`from_faces` for arbitrary input).
+    n_vertices : int
+        Number of vertices (every index of ``F`` is below it).
+
+    Attributes
+    ----------
+    F : (m, 3) int64
+        The faces.
+    n_vertices : int
+        Number of vertices, including unreferenced ones.
+    edges : (e, 2) int64
+        Unique undirected edges, ``edges[:, 0] <= edges[:, 1]``, rows in
+        lexicographic order. A face with a repeated vertex gives a self-loop
+        edge ``(a, a)``.
+    face_edges : (m, 3) int64
+        Edge id of each corner edge: ``face_edges[f, i]`` is the edge from
+        ``F[f, i]`` to ``F[f, (i + 1) % 3]``.
+    edge_face_count : (e,) int64
+        Faces using each edge (1 boundary, 2 interior, > 2 non-manifold).
+    edge_up_count : (e,) int64
+        Faces traversing each edge from its smaller to its larger vertex.
+
+    Examples
+    --------
+    A tetrahedron:
+
+    >>> t = MeshTopology.from_faces([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    >>> t.n_edges, t.is_closed, t.is_coherent, t.vertex_components[0]
+    (6, True, True, 1)
+    """
+
+    def __init__(self, F, n_vertices):
+        self.F = F.view()  # read-only view: the caller's array keeps its flags
+        self.n_vertices = int(n_vertices)
+        base = max(self.n_vertices, 1)
+        a = F.reshape(-1)
+        b = F[:, [1, 2, 0]].reshape(-1)
+        up = a < b
+        key = np.minimum(a, b) * base + np.maximum(a, b)
+        # stable: faces of an edge stay in face order (deterministic first/second face),
+        # and timsort is fast on the partly ordered corner keys of real meshes
+        order = np.argsort(key, kind="stable")
+        ks = key[order]
+        new = np.ones(len(ks), dtype=bool)
+        np.not_equal(ks[1:], ks[:-1], out=new[1:])
+        starts = np.flatnonzero(new)
+        inv = np.empty(len(key), dtype=np.int64)
+        inv[order] = np.cumsum(new) - 1
+        self._order = order
+        self._starts = starts
+        self._same = ~new  # sorted position i repeats the edge of position i - 1
+        self._keys = ks[starts]
+        self._base = base
+        self.edges = np.stack([self._keys // base, self._keys % base], axis=1)
+        self.face_edges = inv.reshape(-1, 3)
+        self.edge_face_count = np.diff(np.append(starts, len(ks)))
+        self.edge_up_count = np.bincount(inv, weights=up, minlength=len(starts)).astype(np.int64)
+        for arr in (self.F, self.edges, self.face_edges, self.edge_face_count, self.edge_up_count):
+            arr.flags.writeable = False
+
+    # ------------------------------------------------------------------ build
+    @classmethod
+    def from_faces(cls, F, n_vertices=None):
+        """Validate ``F`` and build its topology.
+
+        Parameters
+        ----------
+        F : (m, 3) array_like of int
+            Triangles.
+        n_vertices : int, optional
+            Number of vertices; default ``F.max() + 1``.
+
+        Returns
+        -------
+        MeshTopology
+
+        Raises
+        ------
+        InvalidMeshError
+            ``F`` is not an (m, 3) integer array, or indexes vertices outside
+            ``[0, n_vertices)``.
+        """
+        return cls(*_as_faces(F, n_vertices))
+
+    def __repr__(self):
+        return (f"MeshTopology({self.n_vertices} vertices, {self.n_faces} faces, {self.n_edges} edges, "
+                f"{len(self.boundary_edges)} boundary edges)")
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def n_faces(self):
+        """Number of faces (int)."""
+        return len(self.F)
+
+    @property
+    def n_edges(self):
+        """Number of unique undirected edges (int)."""
+        return len(self.edges)
+
+    @cached_property
+    def referenced(self):
+        """(n_vertices,) bool: vertices used by at least one face."""
+        used = np.zeros(self.n_vertices, dtype=bool)
+        used[self.F.reshape(-1)] = True
+        return used
+
+    @property
+    def euler_characteristic(self):
+        """V - E + F over the referenced vertices (int): 2 for a sphere, 1 for a disk, 0 for a tube."""
+        return int(np.count_nonzero(self.referenced)) - self.n_edges + self.n_faces
+
+    # ------------------------------------------------------------------ edges and faces
+    @cached_property
+    def edge_halfedges(self):
+        """(e, 2) int64: the first two half-edges of each edge in face order; -1 if it has one face."""
+        second = np.full(self.n_edges, -1, dtype=np.int64)
+        two = self.edge_face_count >= 2
+        second[two] = self._order[self._starts[two] + 1]
+        return np.stack([self._order[self._starts], second], axis=1)
+
+    @cached_property
+    def edge_faces(self):
+        """(e, 2) int64: the faces of each edge, lower face first; -1 for a boundary edge's missing face.
+
+        A non-manifold edge lists only its first two faces; see :meth:`faces_of_edge`.
+        """
+        H = self.edge_halfedges
+        return np.where(H >= 0, H // 3, -1)
+
+    def faces_of_edge(self, e):
+        """All faces using edge ``e`` ((k,) int64, ascending), also for non-manifold edges."""
+        s = self._starts[e]
+        return self._order[s:s + self.edge_face_count[e]] // 3
+
+    @cached_property
+    def twin(self):
+        """(3 m,) int64: the other half-edge of a two-face edge; -1 on boundary, non-manifold edges."""
+        tw = np.full(3 * self.n_faces, -1, dtype=np.int64)
+        H = self.edge_halfedges[self.edge_face_count == 2]
+        tw[H[:, 0]] = H[:, 1]
+        tw[H[:, 1]] = H[:, 0]
+        return tw
+
+    def edge_index(self, a, b):
+        """Edge id of each vertex pair (a[i], b[i]) in either order, -1 where it is not an edge.
+
+        Parameters
+        ----------
+        a, b : (k,) int
+            Vertex ids.
+
+        Returns
+        -------
+        (k,) int64
+        """
+        a = np.asarray(a, dtype=np.int64).reshape(-1)
+        b = np.asarray(b, dtype=np.int64).reshape(-1)
+        inside = (a >= 0) & (b >= 0) & (a < self.n_vertices) & (b < self.n_vertices)
+        key = np.minimum(a, b) * self._base + np.maximum(a, b)
+        i = np.searchsorted(self._keys, key)
+        hit = inside & (i < self.n_edges)
+        hit[hit] = self._keys[i[hit]] == key[hit]
+        return np.where(hit, i, -1)
+
+    def has_halfedges(self, a, b):
+        """Whether some face runs from ``a[i]`` to ``b[i]`` ((k,) bool): a directed-edge lookup.
+
+        Examples
+        --------
+        >>> t = MeshTopology.from_faces([[0, 1, 2]])
+        >>> t.has_halfedges([0, 1, 0], [1, 0, 2]).tolist()
+        [True, False, False]
+        """
+        a = np.asarray(a, dtype=np.int64).reshape(-1)
+        b = np.asarray(b, dtype=np.int64).reshape(-1)
+        e = self.edge_index(a, b)
+        out = e >= 0
+        up = self.edge_up_count[e[out]]
+        forward = a[out] < b[out]
+        out[out] = np.where(forward, up > 0, self.edge_face_count[e[out]] - up > 0)
+        return out
+
+    # ------------------------------------------------------------------ manifoldness and orientation
+    @cached_property
+    def nonmanifold_edges(self):
+        """(k,) int64: edges shared by more than two faces."""
+        return np.flatnonzero(self.edge_face_count > 2)
+
+    @cached_property
+    def incoherent_edges(self):
+        """(k,) int64: two-face edges that both faces traverse in the same direction."""
+        return np.flatnonzero((self.edge_face_count == 2) & (self.edge_up_count != 1))
+
+    @property
+    def is_edge_manifold(self):
+        """True when no edge has more than two faces."""
+        return len(self.nonmanifold_edges) == 0
+
+    @property
+    def is_coherent(self):
+        """True when the mesh is edge-manifold and every interior edge is traversed once each way."""
+        return self.is_edge_manifold and len(self.incoherent_edges) == 0
+
+    @property
+    def is_closed(self):
+        """True when every edge has exactly two faces (no boundary, no non-manifold edge)."""
+        return bool(np.all(self.edge_face_count == 2))
+
+    # ------------------------------------------------------------------ boundary
+    @cached_property
+    def boundary_edges(self):
+        """(b,) int64: edges with one face."""
+        return np.flatnonzero(self.edge_face_count == 1)
+
+    @cached_property
+    def boundary_halfedges(self):
+        """(b,) int64: the half-edge of each boundary edge (same order as :attr:`boundary_edges`)."""
+        return self._order[self._starts[self.boundary_edges]]
+
+    @cached_property
+    def boundary_faces(self):
+        """(m,) bool: faces with at least one boundary edge."""
+        return (self.edge_face_count[self.face_edges] == 1).any(axis=1)
+
+    def halfedge_vertices(self, h):
+        """Source and target vertex of half-edges ``h``: (k, 2) int64."""
+        h = np.asarray(h, dtype=np.int64)
+        f, i = np.divmod(h, 3)
+        return np.stack([self.F[f, i], self.F[f, (i + 1) % 3]], axis=-1)
+
+    @cached_property
+    def boundary_loops(self):
+        """Ordered boundary loops: tuple of (k,) int64 vertex arrays.
+
+        Each loop follows the faces' orientation (``(loop[i], loop[i + 1])``
+        is a half-edge of a face) and starts at its smallest vertex id; loops
+        are sorted by that vertex (the conventions of
+        :func:`igl.boundary_loop_all`). At a vertex where boundaries touch, the
+        loop turns into the boundary edge reached by rotating about the vertex
+        through its faces, so the loops are well defined there too.
+
+        Raises
+        ------
+        InvalidMeshError
+            The mesh has non-manifold edges or inconsistently oriented faces,
+            which leave the direction and the continuation of a loop undefined.
+        """
+        hb = self.boundary_halfedges
+        if len(hb) == 0:
+            return ()
+        if not self.is_coherent:
+            raise InvalidMeshError(
+                f"boundary loops are undefined: the mesh has {len(self.nonmanifold_edges)} non-manifold "
+                f"edges and {len(self.incoherent_edges)} inconsistently oriented edges; "
+                "run vesselgp.clean_mesh to repair them"
+            )
+        nxt = self._next_boundary(hb)
+        return tuple(_cycles(nxt, self.halfedge_vertices(hb)[:, 0]))
+
+    def _next_boundary(self, hb):
+        """Position in ``hb`` of the boundary half-edge that follows each one.
+
+        From the target ``v`` of boundary half-edge ``h``, rotate about ``v``
+        through the faces (next half-edge in the face, across its twin) until a
+        half-edge leaving ``v`` has no twin. The rotation is injective and
+        starts at a half-edge without a predecessor, so it ends after at most
+        the valence of ``v`` steps.
+        """
+        tw = self.twin
+        cur = hb - hb % 3 + (hb % 3 + 1) % 3  # the half-edge leaving the target in the same face
+        nxt = np.empty(len(hb), dtype=np.int64)
+        active = np.arange(len(hb))
+        while len(active):
+            t = tw[cur]
+            done = t < 0
+            nxt[active[done]] = cur[done]
+            t = t[~done]
+            active, cur = active[~done], t - t % 3 + (t % 3 + 1) % 3
+        rank = np.argsort(hb)
+        return rank[np.searchsorted(hb[rank], nxt)]
+
+    # ------------------------------------------------------------------ adjacency and components
+    @cached_property
+    def adjacency(self):
+        """(n, n) scipy.sparse.csr_array of int8: 1 where two vertices share an edge (symmetric)."""
+        return self._symmetric(np.ones(self.n_edges, dtype=np.int8))
+
+    def edge_lengths(self, V):
+        """(e,) float64: length of each edge for vertex positions ``V`` ((n, 3) float64)."""
+        E = self.edges
+        return np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
+
+    def edge_graph(self, V):
+        """(n, n) scipy.sparse.csr_array of float64: edge lengths, symmetric (for Dijkstra)."""
+        return self._symmetric(self.edge_lengths(V))
+
+    def _symmetric(self, w):
+        E, n = self.edges, self.n_vertices
+        G = sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
+        return (G + G.T).tocsr()
+
+    @cached_property
+    def vertex_components(self):
+        """(count, labels): vertex-connected components, labels (n,) int32; unreferenced vertices alone."""
+        k, lab = connected_components(self.adjacency, directed=False)
+        return int(k), lab
+
+    @cached_property
+    def face_components(self):
+        """(count, labels): edge-connected face components (faces joined through shared edges).
+
+        Faces touching only at a vertex are in different components. Labels
+        (m,) int32 are numbered in order of each component's lowest face.
+        """
+        m = self.n_faces
+        pos = np.flatnonzero(self._same)
+        f = self._order[pos - 1] // 3
+        g = self._order[pos] // 3
+        G = sp.coo_array((np.ones(len(pos), dtype=np.int8), (f, g)), shape=(m, m)).tocsr()
+        k, lab = connected_components(G, directed=False)
+        return int(k), lab
+
+
+def _cycles(nxt, src):
+    """Split the permutation ``nxt`` of boundary half-edges into ordered vertex loops.
+
+    Each cycle starts at its half-edge of smallest source vertex (then lowest
+    position); cycles are sorted by that vertex. Positions within a cycle come
+    from pointer jumping (log of the longest loop steps, vectorised).
+    """
+    b = len(nxt)
+    idx = np.arange(b)
+    G = sp.coo_array((np.ones(b, dtype=np.int8), (idx, nxt)), shape=(b, b)).tocsr()
+    k, lab = connected_components(G, directed=False)
+    first = np.lexsort((idx, src, lab))
+    starts = np.flatnonzero(np.r_[True, lab[first][1:] != lab[first][:-1]])
+    head = first[starts]  # one per cycle, in label order
+    pred = np.empty(b, dtype=np.int64)
+    pred[nxt] = idx
+    pred[head] = -1
+    dist = (pred >= 0).astype(np.int64)
+    p = pred.copy()
+    while True:
+        live = np.flatnonzero(p >= 0)
+        if not len(live):
+            break
+        q = p[live]
+        dist[live] += dist[q]  # synchronous: dist[q] and p[q] are gathered before the updates
+        p[live] = p[q]
+    order = np.lexsort((dist, lab))
+    sizes = np.bincount(lab, minlength=k)
+    loops = np.split(src[order], np.cumsum(sizes)[:-1])
+    by_start = np.argsort(src[head], kind="stable")
+    return [np.ascontiguousarray(loops[c]) for c in by_start]
+
+
+def mesh_topology(F, n_vertices=None):
+    """The :class:`MeshTopology` of faces ``F`` (validated; see :meth:`MeshTopology.from_faces`).
+
+    Parameters
+    ----------
+    F : (m, 3) array_like of int
+    n_vertices : int, optional
+        Default ``F.max() + 1``.
+
+    Returns
+    -------
+    MeshTopology
+
+    Examples
+    --------
+    Two triangles sharing an edge: a square with one boundary loop.
+
+    >>> t = mesh_topology([[0, 1, 2], [0, 2, 3]])
+    >>> t.n_edges, [lp.tolist() for lp in t.boundary_loops]
+    (5, [[0, 1, 2, 3]])
+    """
+    return MeshTopology.from_faces(F, n_vertices)
