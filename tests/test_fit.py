@@ -1,28 +1,33 @@
-"""Generalized-cylinder fit (paper Eq. 1-5) against analytic axes and radii, and on real meshes."""
+"""Generalized-cylinder fit (paper Eq. 1-5) against analytic axes and radii, and on real meshes.
+
+The truth is the synthetic vessel's centre line and radius, and for the frames
+an RMF integrated from its ODE along the true centre line (tests/_reference.py),
+never vesselgp's own RMF.
+"""
 
 import igl
 import numpy as np
 import pytest
-from scipy.spatial import cKDTree
 
 import vesselgp
 from vesselgp import InvalidMeshError, NotTubularError, fit_generalized_cylinder
 from vesselgp.synthetic import named_curve, synthetic_vessel
 from _data import REAL
+from _reference import curve_spline, polyline_distance, rmf_ode, signed_angle, unit, wrap
 
 R0 = 1.5
 
-
-def polyline_distance(Q, P):
-    """Distance from each row of Q to the polyline P (exact, segment-wise)."""
-    _, j = cKDTree(P).query(Q)
-    best = np.full(len(Q), np.inf)
-    for jj in (np.clip(j - 1, 0, len(P) - 2), np.clip(j, 0, len(P) - 2)):
-        A, B = P[jj], P[jj + 1]
-        ab = B - A
-        t = np.clip(np.sum((Q - A) * ab, 1) / np.sum(ab * ab, 1), 0, 1)
-        best = np.minimum(best, np.linalg.norm(Q - (A + t[:, None] * ab), axis=1))
-    return best
+# README "Accuracy and speed", fit table: vertices, max axis error (% of the radius) and max
+# radius error (%) over the interior 90 %. Measured for issue #12 (helix mesh: 10154 vertices since
+# the synthetic RMF is integrated from its ODE; 10152 before):
+# 0.164 / 0.102, 0.111 / 0.150, 0.080 / 0.106, 0.759 / 0.132. Each test bound is 1.5 x the figure.
+README_FIT = {
+    "half_circle": (3948, 0.16, 0.10),
+    "helix": (10154, 0.11, 0.15),
+    "s_curve": (5501, 0.08, 0.11),
+    "aortic_arch": (4744, 0.76, 0.13),
+}
+FACTOR = 1.5
 
 
 def arch_curve():
@@ -60,21 +65,63 @@ def _orient(gc, truth):
     return 1.0 - gc.s
 
 
-def test_axis_within_one_percent_of_radius(fitted):
+def test_axis_error_within_readme_figure(fitted):
+    """Exact distance from the fitted axis to the true centre line: README fit table."""
     name, ves, gc = fitted
+    n_readme, axis_pct, _ = README_FIT[name]
+    assert abs(len(ves.V) - n_readme) <= 0.05 * n_readme, "not the README's mesh any more"
     inner = (gc.dense_s > 0.05) & (gc.dense_s < 0.95)
     d = polyline_distance(gc.dense_points[inner], ves.truth.centers)
-    assert d.max() <= 0.01 * R0, f"{name}: axis off by {d.max() / R0:.2%} of the radius"
-    assert abs(gc.length - ves.truth.length) <= 0.01 * R0
+    assert d.max() <= FACTOR * axis_pct / 100 * R0, f"{name}: axis off by {d.max() / R0:.3%} of the radius"
+    # length: measured within 0.32 % of a radius (aortic arch), 0.016-0.13 % on the others
+    assert abs(gc.length - ves.truth.length) <= 0.005 * R0
 
 
-def test_radius_within_one_percent(fitted):
+def test_radius_error_within_readme_figure(fitted):
+    """Perimeter-mean radius (what Eq. 4 estimates) against the truth: README fit table.
+
+    The bounds (0.15-0.23 %) are far below a 0.8 % bias of the radius."""
     name, ves, gc = fitted
+    _, _, radius_pct = README_FIT[name]
     s_true = _orient(gc, ves.truth)
     r_true = np.interp(s_true, ves.truth.s, ves.truth.radii)
     inner = (gc.s > 0.05) & (gc.s < 0.95)
     err = np.abs(gc.radii - r_true)[inner] / r_true[inner]
-    assert err.max() <= 0.01, f"{name}: radius off by {err.max():.2%}"
+    assert err.max() <= FACTOR * radius_pct / 100, f"{name}: radius off by {err.max():.3%}"
+
+
+def reference_frames(truth, s_true, n=2001):
+    """Points, tangents and RMF normals of the true centre line at true ``s``: ODE transport.
+
+    The RMF is integrated along a quintic spline of the true centres (scipy only) from an
+    arbitrary start normal; only angles relative to it up to one constant are meaningful.
+    """
+    u, sp = curve_spline(truth.centers)
+    grid = np.linspace(0, u[-1], n)
+    T0 = unit(sp.derivative(1)(0.0))
+    U0 = np.cross(T0, [1.0, 0, 0] if abs(T0[0]) < 0.9 else [0, 1.0, 0])
+    Tg, Ug = rmf_ode(grid, sp.derivative(1), sp.derivative(2), U0)
+    uq = np.interp(s_true, truth.s, u)
+    T = unit(np.stack([np.interp(uq, grid, Tg[:, k]) for k in range(3)], 1))
+    U = np.stack([np.interp(uq, grid, Ug[:, k]) for k in range(3)], 1)
+    U = unit(U - np.sum(U * T, 1)[:, None] * T)
+    return sp(uq), T, U
+
+
+def test_fitted_frames_are_the_rmf_of_the_true_axis(fitted):
+    """U of the fit turns against the RMF of the true centre line by a constant only.
+
+    Measured drift: 0.007-0.009 degrees (half circle, helix, S-curve), 0.025 (aortic arch,
+    bend radius 3.2 r); bound 1.5 x 0.025. A spurious RMF twist of 2 degrees fails it."""
+    name, ves, gc = fitted
+    s_true = _orient(gc, ves.truth)
+    _, T, U = reference_frames(ves.truth, s_true)
+    inner = (gc.s > 0.05) & (gc.s < 0.95)
+    # tangents agree (worst 1.8 degrees where the arch's curvature jumps at its C1 joins)
+    assert np.abs(np.abs(np.sum(T * gc.frames[:, 0], 1)) - 1)[inner].max() < 1e-3
+    a = signed_angle(T, U, gc.frames[:, 1])[inner]  # a transported normal is one whichever way T points
+    drift = np.degrees(np.abs(wrap(a - a[0])))
+    assert drift.max() <= FACTOR * 0.025, f"{name}: fitted frame drifts {drift.max():.4f} deg from the RMF"
 
 
 def test_frames_are_rmf_and_vertex_parameters_consistent(fitted):
@@ -89,17 +136,21 @@ def test_frames_are_rmf_and_vertex_parameters_consistent(fitted):
     # wall vertices lie in their section plane and at the wall radius
     w = gc.vertex_weight > 0
     assert np.abs(gc.vertex_local[w, 0]).max() < 1e-6 * gc.length
-    # the angle theta_i agrees with the true material angle up to one constant
-    # (the choice of U at s = 0); a reversed axis turns angles the other way
+    # the angle theta_i agrees with the vertex's angle about the true centre line from its
+    # RMF (ODE reference, at the vertex's true s) up to one constant (the choice of U at
+    # s = 0); a reversed axis turns angles the other way. Measured spread: 0.05-0.10 degrees,
+    # 0.50 on the aortic arch (bend radius 3.2 r)
     reversed_axis = _orient(gc, ves.truth)[0] != 0
     s_true = 1 - gc.vertex_s if reversed_axis else gc.vertex_s
     sign = -1.0 if reversed_axis else 1.0
     inner = w & (s_true > 0.05) & (s_true < 0.95)
-    d = np.angle(np.exp(1j * (gc.vertex_theta[inner] - sign * ves.truth.vertex_theta[inner])))
+    m, Tr, Ur = reference_frames(ves.truth, ves.truth.vertex_s[inner])
+    theta_ref = signed_angle(Tr, Ur, ves.V[inner] - m)
+    d = wrap(gc.vertex_theta[inner] - sign * theta_ref)
     mean = np.angle(np.mean(np.exp(1j * d)))
-    spread = np.abs(np.angle(np.exp(1j * (d - mean))))
-    assert np.degrees(spread).max() < 1.0
-    # s of each vertex is its true section's s
+    spread = np.abs(wrap(d - mean))
+    assert np.degrees(spread).max() < 0.75
+    # s of each vertex is its true section's s (measured 0.006-0.01 r, 0.039 r on the arch)
     assert np.abs(s_true[inner] - ves.truth.vertex_s[inner]).max() * gc.length < 0.05 * R0
 
 

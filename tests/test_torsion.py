@@ -1,4 +1,8 @@
-"""Material torsion (paper Eq. 6-8) against imposed, analytic twists."""
+"""Material torsion (paper Eq. 6-8) against imposed, analytic twists.
+
+Bounds are 1.5 x the figures of README "Accuracy and speed" (issue #12: tests as
+strict as the claims); each figure is the worst measured error of its row.
+"""
 import numpy as np
 import pytest
 
@@ -7,7 +11,7 @@ from vesselgp.synthetic import deform_synthetic, named_curve, synthetic_vessel
 from _data import REAL
 
 R0 = 1.5
-TOL_DEG = 0.5
+FACTOR = 1.5  # test bound / README figure
 
 
 def smoothstep(x):
@@ -48,6 +52,21 @@ PAIRS = [  # (rest, deformed): shapes differ in bending too
     ("s_curve", "arc"),
 ]
 
+# README torsion table, per pair: max alpha error over the four twists (degrees), max energy
+# error (%), and the total twist measured under pure bending (degrees). Measured for issue #12:
+#   straight -> arch   0.176, 0.293 (ramp), 0.0081
+#   arch -> helix      0.432, 0.752 (ramp), 0.0474
+#   arc -> S-curve     0.080, 0.152 (sinusoid), 0.0071
+#   helix -> straight  0.060, 0.095 (uniform 40 degrees; 0.039 without it), 0.0152
+#   S-curve -> arc     0.082, 0.156 (sinusoid), 0.0089
+README_TORSION = {
+    ("straight", "aortic_arch"): (0.18, 0.29, 0.008),
+    ("aortic_arch", "helix"): (0.43, 0.75, 0.047),
+    ("arc", "s_curve"): (0.08, 0.15, 0.007),
+    ("helix", "straight"): (0.06, 0.09, 0.015),
+    ("s_curve", "arc"): (0.08, 0.16, 0.009),
+}
+
 
 @pytest.fixture(scope="module")
 def rest_vessels():
@@ -64,7 +83,8 @@ def energy_true(dalpha):
     return float(np.trapezoid(dalpha(s) ** 2, s))
 
 
-def check_profile(prof, alpha, dalpha, gc, truth):
+def check_profile(prof, alpha, dalpha, gc, truth, tol_deg, tol_energy_pct):
+    """alpha within ``tol_deg`` over the interior 90 %, Eq. 8 energy within ``tol_energy_pct`` %."""
     # the fit may run from either end: express the truth in the fit's s
     reverse = np.linalg.norm(gc.centers[0] - truth.centers[0]) > np.linalg.norm(gc.centers[0] - truth.centers[-1])
     s_true = 1 - prof.s if reverse else prof.s
@@ -73,10 +93,16 @@ def check_profile(prof, alpha, dalpha, gc, truth):
         a_true = -a_true  # T points the other way, so the rotation about it changes sign
     inner = (prof.s > 0.05) & (prof.s < 0.95)
     err = np.degrees(np.abs(prof.alpha - a_true)[inner].max())
-    assert err <= TOL_DEG, f"alpha off by {err:.3f} deg"
+    assert err <= tol_deg, f"alpha off by {err:.3f} deg (bound {tol_deg:.3g})"
     e_true = energy_true(dalpha)
     if e_true > 0:
-        assert abs(prof.energy - e_true) <= 0.02 * e_true, f"energy {prof.energy:.4f} vs {e_true:.4f}"
+        rel = 100 * (prof.energy - e_true) / e_true
+        assert abs(rel) <= tol_energy_pct, f"energy {prof.energy:.5f} vs {e_true:.5f}: {rel:.3f} % (bound {tol_energy_pct:.3g} %)"
+
+
+def pair_bounds(pair):
+    a, e, _ = README_TORSION[pair]
+    return FACTOR * a, FACTOR * e
 
 
 @pytest.mark.parametrize("rest_name, def_name", PAIRS)
@@ -86,25 +112,42 @@ def test_imposed_twist_is_measured(rest_vessels, rest_name, def_name, twist):
     alpha, dalpha = TWISTS[twist]
     Vd = deform_synthetic(ves, CURVES[def_name](), twist=alpha)
     prof = meter(Vd)
-    check_profile(prof, alpha, dalpha, gc, ves.truth)
+    check_profile(prof, alpha, dalpha, gc, ves.truth, *pair_bounds((rest_name, def_name)))
 
 
 def test_uniform_twist_energy_is_phi_squared(rest_vessels):
+    """Straight -> aortic arch row: E = Phi^2 (measured 0.17, -0.12, 0.02 %), total twist Phi
+    (measured within 0.11 degrees)."""
     ves, gc, meter = rest_vessels["straight"]
+    tol_deg, tol_pct = pair_bounds(("straight", "aortic_arch"))
     for phi in (0.5, np.pi, 4 * np.pi):
         prof = meter(deform_synthetic(ves, CURVES["aortic_arch"](), twist=phi))
-        assert abs(prof.energy - phi**2) <= 0.02 * phi**2
-        assert abs(abs(prof.total_twist) - phi) <= np.radians(TOL_DEG)
-        assert abs(abs(prof.twist_per_length) - phi / prof.length) <= 1e-3 * phi / prof.length
+        assert abs(prof.energy - phi**2) <= tol_pct / 100 * phi**2, (phi, prof.energy)
+        # the measured handedness: a right-handed twist about the fit's T (either direction) is positive
+        assert abs(prof.total_twist - phi) <= np.radians(tol_deg), (phi, prof.total_twist)
+        assert abs(prof.twist_per_length - phi / prof.length) <= 1e-3 * phi / prof.length
 
 
 @pytest.mark.parametrize("rest_name, def_name", PAIRS)
 def test_pure_bending_has_no_twist(rest_vessels, rest_name, def_name):
+    """README torsion table, last column: the twist measured when only the bending changes."""
     ves, gc, meter = rest_vessels[rest_name]
     prof = meter(deform_synthetic(ves, CURVES[def_name]()))
-    assert np.degrees(abs(prof.total_twist)) <= 0.2
-    assert prof.energy <= 0.01 * (np.pi / 2) ** 2
+    bend = README_TORSION[(rest_name, def_name)][2]
+    assert np.degrees(abs(prof.total_twist)) <= FACTOR * bend, np.degrees(prof.total_twist)
+    assert prof.energy <= 1e-3  # measured 1.5e-6 to 2.0e-4; a 10 degree twist has 0.03
     assert prof.alpha[0] == 0.0
+
+
+def test_half_node_smoothing_on_the_synthetic_sweep(rest_vessels):
+    """README: smoothing=0.5 is worse on the synthetic cases, 0.48 degrees worst (arch -> helix;
+    the default smoothing gives 0.43 there), so it is not the default."""
+    ves, gc, _ = rest_vessels["aortic_arch"]
+    meter = TorsionMeter(ves.V, ves.F, gc, smoothing=0.5)
+    for name in sorted(TWISTS):
+        alpha, dalpha = TWISTS[name]
+        prof = meter(deform_synthetic(ves, CURVES["helix"](), twist=alpha))
+        check_profile(prof, alpha, dalpha, gc, ves.truth, FACTOR * 0.48, FACTOR * 0.75)
 
 
 def test_identity_deformation_is_exactly_zero(rest_vessels):
@@ -134,27 +177,31 @@ def test_thinned_eq7_subset_keeps_the_accuracy(rest_vessels, monkeypatch, twist)
     ves, gc, full = rest_vessels["aortic_arch"]
     monkeypatch.setattr(tolerances, "TORSION_MEAN_VERTICES", len(ves.V) // 5)
     meter = TorsionMeter(ves.V, ves.F, gc)
-    assert meter._mean.step >= 5  # the subset is really in use
     alpha, dalpha = TWISTS[twist]
     Vd = deform_synthetic(ves, CURVES["helix"](), twist=alpha)
     prof = meter(Vd)
-    check_profile(prof, alpha, dalpha, gc, ves.truth)
-    # and agrees with the every-vertex measurement far better than the bound
-    assert np.degrees(np.abs(prof.alpha - full(Vd).alpha).max()) <= 0.2
+    # the arch -> helix row's bounds (measured 0.47 degrees and -0.71 % on the ramp)
+    check_profile(prof, alpha, dalpha, gc, ves.truth, *pair_bounds(("aortic_arch", "helix")))
+    # the subset is really in use (the result differs), and agrees with the every-vertex
+    # measurement far better than the bound (measured 0.12 degrees)
+    diff = np.degrees(np.abs(prof.alpha - full(Vd).alpha).max())
+    assert 0 < diff <= 0.2
     assert meter(ves.V).energy < 1e-12  # the identity is still exactly zero
 
 
 def test_resolution_and_triangulation_independence():
-    """24, 48 and 96 vertices around, structured and remeshed: energies agree within 2 %."""
+    """24, 48 and 96 vertices around, structured and remeshed (circular sections): each energy
+    within the arc -> S-curve row's bound (measured -0.09 to -0.11 %, spread 0.02 %)."""
     alpha, dalpha = TWISTS["sinusoidal"]
+    e_true = energy_true(dalpha)
+    _, tol_pct = pair_bounds(("arc", "s_curve"))
     energies = {}
     for n_around, remesh in [(24, False), (48, False), (96, False), (24, True), (48, True)]:
         ves = synthetic_vessel(CURVES["arc"](), radius=R0, n_around=n_around, remesh=remesh, seed=2)
         prof = measure_torsion(ves.V, deform_synthetic(ves, CURVES["s_curve"](), twist=alpha), ves.F)
         energies[(n_around, remesh)] = prof.energy
     e = np.array(list(energies.values()))
-    assert (np.abs(e - e.mean()) <= 0.02 * e.mean()).all(), energies
-    assert abs(e.mean() - energy_true(dalpha)) <= 0.02 * energy_true(dalpha)
+    assert (np.abs(e - e_true) <= tol_pct / 100 * e_true).all(), (e_true, energies)
 
 
 def test_frenet_quantities_of_the_deformed_axis(rest_vessels):
@@ -195,33 +242,82 @@ def twist_about_axis(V, gc, alpha):
     return pts + d * np.cos(a) + np.cross(T, d) * np.sin(a) + T * np.einsum("ij,ij->i", T, d)[:, None] * (1 - np.cos(a))
 
 
-# real meshes: (file, ends, max alpha error in degrees, relative energy error); the bounds are
-# looser than the synthetic ones where the data is harder: a 3.2k-vertex coronary with a
-# stenosis (L = 60 r, about 30 vertices per axis node), and a Y-branch whose path is only
-# 12.7 radii long (a ramp over 40 % of it is a twist change over 5 radii, which the half-radius
-# smoothing of alpha rounds off)
-REAL_TWIST_CASES = [
-    ("dfemtoolz_artery_segment_lumen_capped.stl", None, 0.5, 0.01),
-    ("xra_coronary_single_branch_open.stl", None, 3.0, 0.02),
-    ("vmtk_abdominal_aorta_iliac_bifurcation_open.stl", (0, 1), 2.5, 0.07),
-]
+# README real-mesh table: per mesh, per twist, (max alpha error in degrees over the interior 90 %,
+# relative energy error in %). Looser than the synthetic figures where the data is harder: a
+# 3.2k-vertex coronary with a stenosis (L = 60 r, about 30 vertices per axis node: the recovered
+# axis moves under the twist), and a Y whose paths are only 12.3-12.7 radii long (a ramp over
+# 40 % of it changes over 5 radii, which the half-radius smoothing of alpha rounds off).
+# Measured for issue #12 (ramp, uniform, sinusoid):
+#   lumen     0.259 / -0.60 %, 0.171 / -0.094 %, 0.118 / -0.40 %
+#   coronary  0.371 / 0.90 %,  2.297 / -0.99 %,  1.602 / -0.62 %
+#   Y path 1  1.657 / -5.28 %, 0.879 / -0.37 %,  0.814 / -2.97 %
+#   Y path 2  1.716 / -5.47 %, 0.624 / -0.15 %,  0.929 / -3.43 %
+RAMP = TWISTS["ramp_part"]
+REAL_TWISTS = {  # alpha(s), alpha'(s)
+    "quarter_ramp": (lambda s: 0.5 * RAMP[0](s), lambda s: 0.5 * RAMP[1](s)),  # a quarter turn over 40 %
+    "uniform_turn": (lambda s: 2 * np.pi * s, lambda s: 2 * np.pi + 0 * s),  # one full turn
+    "sinusoid": (lambda s: 0.6 * np.sin(2 * np.pi * s), lambda s: 1.2 * np.pi * np.cos(2 * np.pi * s)),  # 34 deg
+}
+REAL_MESHES = {  # name: (file, ends)
+    "lumen": ("dfemtoolz_artery_segment_lumen_capped.stl", None),
+    "coronary": ("xra_coronary_single_branch_open.stl", None),
+    "y_path1": ("vmtk_abdominal_aorta_iliac_bifurcation_open.stl", (0, 1)),
+    "y_path2": ("vmtk_abdominal_aorta_iliac_bifurcation_open.stl", (0, 2)),
+}
+README_REAL = {
+    "lumen": {"quarter_ramp": (0.26, 0.6), "uniform_turn": (0.17, 0.09), "sinusoid": (0.12, 0.4)},
+    "coronary": {"quarter_ramp": (0.37, 0.9), "uniform_turn": (2.3, 1.0), "sinusoid": (1.6, 0.6)},
+    "y_path1": {"quarter_ramp": (1.7, 5.3), "uniform_turn": (0.88, 0.4), "sinusoid": (0.81, 3.0)},
+    "y_path2": {"quarter_ramp": (1.7, 5.5), "uniform_turn": (0.62, 0.15), "sinusoid": (0.93, 3.4)},
+}
 
 
-@pytest.mark.parametrize("fname, ends, tol_deg, tol_energy", REAL_TWIST_CASES)
-def test_imposed_twist_on_real_meshes(fname, ends, tol_deg, tol_energy):
-    """A known twist about the fitted axis of a segmented vessel is measured back."""
+@pytest.fixture(scope="module")
+def real_meters():
     from vesselgp import read_mesh
 
-    V, F = read_mesh(REAL / fname)
-    gc = fit_generalized_cylinder(V, F, ends=ends)
-    meter = TorsionMeter(V, F, gc)
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            fname, ends = REAL_MESHES[name]
+            V, F = read_mesh(REAL / fname)
+            gc = fit_generalized_cylinder(V, F, ends=ends)
+            cache[name] = (V, F, gc, TorsionMeter(V, F, gc))
+        return cache[name]
+
+    return get
+
+
+def real_errors(meter, V, gc, twist):
+    alpha, dalpha = REAL_TWISTS[twist]
+    prof = meter(twist_about_axis(V, gc, alpha))
+    inner = (prof.s > 0.05) & (prof.s < 0.95)
+    err = np.degrees(np.abs(prof.alpha - (alpha(prof.s) - alpha(0)))[inner].max())
+    e_true = energy_true(dalpha)
+    return prof, err, 100 * (prof.energy - e_true) / e_true
+
+
+@pytest.mark.parametrize("twist", sorted(REAL_TWISTS))
+@pytest.mark.parametrize("mesh", sorted(REAL_MESHES))
+def test_imposed_twist_on_real_meshes(real_meters, mesh, twist):
+    """A known twist about the fitted axis of a segmented vessel is measured back: README table."""
+    V, F, gc, meter = real_meters(mesh)
     assert meter(V).energy < 1e-12
-    ramp = TWISTS["ramp_part"]  # half of it: a quarter turn over the middle 40 %
-    for alpha, dalpha in ((lambda s: 0.5 * ramp[0](s), lambda s: 0.5 * ramp[1](s)),
-                          (lambda s: 2 * np.pi * s, lambda s: 2 * np.pi + 0 * s)):
-        prof = meter(twist_about_axis(V, gc, alpha))
-        inner = (prof.s > 0.05) & (prof.s < 0.95)
-        err = np.degrees(np.abs(prof.alpha - (alpha(prof.s) - alpha(0)))[inner].max())
-        assert err <= tol_deg, f"{fname}: alpha off by {err:.2f} deg"
-        e_true = energy_true(dalpha)
-        assert abs(prof.energy - e_true) <= tol_energy * e_true, f"{fname}: energy {prof.energy:.3f} vs {e_true:.3f}"
+    _, err, rel = real_errors(meter, V, gc, twist)
+    tol_deg, tol_pct = (FACTOR * x for x in README_REAL[mesh][twist])
+    assert err <= tol_deg, f"{mesh}: alpha off by {err:.3f} deg (bound {tol_deg:.3g})"
+    assert abs(rel) <= tol_pct, f"{mesh}: energy off by {rel:.3f} % (bound {tol_pct:.3g} %)"
+
+
+def test_short_y_path_error_is_the_smoothing(real_meters):
+    """README: on the short Y path the ramp's raw Eq. 7 bins are within 0.55 degrees, and
+    smoothing=0.5 brings it to 0.53 degrees and 1.4 % (measured 0.551, 0.534, -1.38 %)."""
+    V, F, gc, meter = real_meters("y_path1")
+    prof, _, _ = real_errors(meter, V, gc, "quarter_ramp")
+    alpha = REAL_TWISTS["quarter_ramp"][0]
+    inner = (prof.bin_s > 0.05) & (prof.bin_s < 0.95)
+    raw = np.degrees(np.abs(prof.bin_alpha - (alpha(prof.bin_s) - alpha(0)))[inner].max())
+    assert raw <= FACTOR * 0.55, raw
+    _, err, rel = real_errors(TorsionMeter(V, F, gc, smoothing=0.5), V, gc, "quarter_ramp")
+    assert err <= FACTOR * 0.53 and abs(rel) <= FACTOR * 1.4, (err, rel)
