@@ -80,6 +80,12 @@ MUTATIONS = {
         "        d = self.deformer\n        angle = 0.0\n        bc = self.handle_positions(angle)",
         ["tests/test_deform.py", "tests/test_join.py"],
     ),
+    "rod_ignores_angle": (
+        "vesselgp/deform.py",
+        "        a = self.alpha_end(angle) * self._vg",
+        "        a = self.alpha_end(0.0) * self._vg",
+        ["tests/test_deform.py", "tests/test_join.py"],
+    ),
 }
 
 
