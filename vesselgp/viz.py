@@ -353,7 +353,7 @@ def _render_figure(poly, col, title, colorbar):
 
 def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material twist \u03b1 (deg)",
                 view=None, vmin=None, vmax=None, cmap="coolwarm", others=(), color=(0.85, 0.45, 0.4),
-                max_faces=tol.VIZ_MAX_FACES, dpi=tol.VIZ_DPI):
+                max_faces=None, dpi=None):
     """Render a (shaded) mesh to a PNG, headless.
 
     Orthographic view from :func:`view_basis` (side-on, equal aspect), faces
@@ -381,11 +381,13 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
         Further meshes drawn in light grey in the same view (e.g. the vessel joined to).
     color : (3,) float
         Colour of the mesh when ``scalars`` is None.
-    max_faces : int
+    max_faces : int, optional
         Meshes with more faces are decimated first (pymeshlab quadric edge
         collapse; scalars interpolated at the closest original surface point)
-        so a render takes about a second.
-    dpi : int
+        so a render takes about a second. Default ``tolerances.VIZ_MAX_FACES``,
+        read at call time.
+    dpi : int, optional
+        Default ``tolerances.VIZ_DPI``.
 
     Returns
     -------
@@ -412,7 +414,8 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
         S = np.asarray(scalars, float).reshape(-1)
         if S.shape != (len(V),):
             raise VesselError(f"scalars must have one value per vertex ({len(V)}), got {S.shape}")
-    max_faces = _positive_int(max_faces, "max_faces")
+    max_faces = _positive_int(tol.VIZ_MAX_FACES if max_faces is None else max_faces, "max_faces")
+    dpi = tol.VIZ_DPI if dpi is None else dpi
     cm = _colormap(cmap)
     meshes = [(V, F, S, True)] + [(*as_mesh(Vo, Fo), None, False) for Vo, Fo in others]
     meshes = [(*_decimate(v, f, s, max_faces), main) if len(f) > max_faces else (v, f, s, main)
