@@ -26,7 +26,7 @@ from . import pipeline
 from . import tolerances as tol
 from .deform import METHODS, Frame
 from .errors import VesselError
-from .io import to_json, write_json
+from .io import read_json, to_json, write_json
 from .pipeline import OutputFolder
 
 log = logging.getLogger("vesselgp.cli")
@@ -77,7 +77,9 @@ def _ids(text, name):
     if text.startswith("@"):
         path = Path(text[1:])
         if path.suffix.lower() == ".json":
-            d = read_json_list(path, f"--{name}")
+            d = read_json(path, f"--{name} file", expect=list)
+            if not all(isinstance(v, int) and not isinstance(v, bool) for v in d):
+                raise VesselError(f"--{name} file {path} must hold a JSON list of integer vertex ids")
             return np.asarray(d, np.int64).reshape(-1)
         try:
             text = path.read_text()
@@ -97,19 +99,6 @@ def _ids(text, name):
     if not out:
         raise VesselError(f"--{name}: no vertex ids given")
     return np.asarray(out, np.int64)
-
-
-def read_json_list(path, what):
-    """A JSON list of integers from ``path``, or a VesselError saying what is wrong."""
-    try:
-        d = json.loads(Path(path).read_text())
-    except OSError as exc:
-        raise VesselError(f"{what}: cannot read {path} ({exc.strerror})") from None
-    except ValueError as exc:
-        raise VesselError(f"{what}: {path} is not valid JSON ({exc}); write a list like [0, 1, 2]") from None
-    if not isinstance(d, list) or not all(isinstance(v, int) and not isinstance(v, bool) for v in d):
-        raise VesselError(f"{what}: {path} must hold a JSON list of integer vertex ids")
-    return d
 
 
 def _progress(args):

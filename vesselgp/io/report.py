@@ -65,13 +65,13 @@ def write_csv(path, columns):
     return Path(path)
 
 
-def read_json(path, what="JSON file"):
-    """Parse a JSON object from ``path``.
+def read_json(path, what="JSON file", expect=dict):
+    """Parse JSON from ``path`` whose top level is an ``expect`` (dict or list).
 
     Raises
     ------
     VesselError
-        Unreadable file, invalid JSON, or not an object at the top level.
+        Unreadable file, invalid JSON, or another type at the top level.
     """
     try:
         d = json.loads(Path(path).read_text())
@@ -79,6 +79,7 @@ def read_json(path, what="JSON file"):
         raise VesselError(f"cannot read {what} {path} ({exc.strerror})") from None
     except ValueError as exc:
         raise VesselError(f"{what} {path} is not valid JSON ({exc})") from None
-    if not isinstance(d, dict):
-        raise VesselError(f"{what} {path} must hold a JSON object")
+    if not isinstance(d, expect):
+        kind = "an object" if expect is dict else "a list"
+        raise VesselError(f"{what} {path} must hold {kind} at the top level")
     return d
