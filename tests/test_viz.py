@@ -264,3 +264,22 @@ def test_atomic_write_keeps_old_file_on_failure(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["x.txt"]
     with pytest.raises(MeshWriteError):
         atomic_write(tmp_path / "missing" / "y.txt", lambda fh: fh.write("y"))
+
+
+def test_periodic_scalars_have_no_seam_and_the_axis_is_drawn(tmp_path):
+    """An angle about a tube's axis wraps at +-180: faces at the wrap get the circular mean of their
+    corners (about +-180, red/blue at the ends of a cyclic map), not the linear mean (about 0)."""
+    from vesselgp.viz import _face_values
+
+    S = np.array([179.0, -179.0, 178.0])
+    F = np.array([[0, 1, 2]])
+    assert abs(abs(_face_values(S, F, 360.0)[0]) - 179.33) < 0.01
+    assert abs(_face_values(S, F, None)[0] - 59.33) < 0.01  # what the linear mean would give
+    ves = synthetic_vessel("arc", radius=1.5, n_around=24, remesh=False)
+    theta = np.degrees(np.arctan2(ves.V[:, 1] - ves.V[:, 1].mean(), ves.V[:, 2]))
+    render_mesh(tmp_path / "t.png", ves.V, ves.F, theta, vmin=-180, vmax=180, cmap="twilight", period=360.0,
+                lines=[ves.truth.centers])
+    assert_png(tmp_path / "t.png")
+    render_mesh(tmp_path / "d.png", ves.V, ves.F, theta, vmin=-180, vmax=180, cmap="twilight", period=360.0,
+                max_faces=500)
+    assert_png(tmp_path / "d.png")

@@ -196,6 +196,16 @@ def _pymeshlab_message(exc):
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
+def _decimated(V, F, S, max_faces, period):
+    """:func:`_decimate`, or for periodic scalars the nearest original vertex's value (no blending across the wrap)."""
+    if S is None or period is None:
+        return _decimate(V, F, S, max_faces)
+    from scipy.spatial import cKDTree
+
+    V2, F2, _ = _decimate(V, F, None, max_faces)
+    return V2, F2, S[cKDTree(V).query(V2)[1]]
+
+
 def _decimate(V, F, scalars, max_faces):
     """Quadric edge collapse to about ``max_faces`` faces, scalars interpolated on the original.
 
@@ -297,18 +307,34 @@ def _face_polys(V, F, basis):
     return P[:, :2][F][order], shade[order], depth[order], order
 
 
-def _shaded_polygons(meshes, basis, norm, cmap, color):
+def _face_values(S, F, period):
+    """Per-face value: the mean of the corners, or their circular mean for a periodic scalar.
+
+    A periodic scalar (an angle) averaged linearly across its wrap gives a
+    seam of wrong colour; the circular mean is wrapped to ``[0, period)``
+    relative to the colour range by the caller's normalisation.
+    """
+    if period is None:
+        return np.nanmean(S[F], axis=1)
+    z = np.exp(2j * np.pi * S[F] / period).mean(axis=1)
+    return np.angle(z) * period / (2 * np.pi)
+
+
+def _shaded_polygons(meshes, basis, norm, cmap, color, period=None):
     """Polygons and RGB face colours of all meshes, back to front.
 
     ``meshes`` holds ``(V, F, S, main)``: per-vertex scalars ``S`` (or None)
-    colour a face by their mean; otherwise the main mesh is ``color`` and the
-    others grey.
+    colour a face by their mean (circular mean when ``period`` is given);
+    otherwise the main mesh is ``color`` and the others grey.
     """
     polys, cols, depths = [], [], []
     for Vm, Fm, Sm, main in meshes:
         poly, shade, depth, order = _face_polys(Vm, Fm, basis)
         if Sm is not None:
-            base = cmap(norm(np.nanmean(Sm[Fm[order]], axis=1)))[:, :3]
+            fv = _face_values(Sm, Fm[order], period)
+            if period is not None:  # into the colour range [vmin, vmin + period)
+                fv = norm.vmin + np.mod(fv - norm.vmin, period)
+            base = cmap(norm(fv))[:, :3]
         else:
             rgb = color if main else tol.VIZ_OTHER_GREY
             base = np.tile(np.asarray(rgb, float), (len(order), 1))
@@ -319,8 +345,9 @@ def _shaded_polygons(meshes, basis, norm, cmap, color):
     return np.concatenate(polys)[order], np.concatenate(cols)[order]
 
 
-def _render_figure(poly, col, title, colorbar):
-    """Figure of screen polygons at equal aspect; ``colorbar`` is None or (ScalarMappable, label)."""
+def _render_figure(poly, col, title, colorbar, lines=()):
+    """Figure of screen polygons at equal aspect; ``colorbar`` is None or (ScalarMappable, label);
+    ``lines`` are screen polylines (k, 2) drawn on top."""
     from matplotlib.collections import PolyCollection
 
     xy = poly.reshape(-1, 2)
@@ -337,6 +364,8 @@ def _render_figure(poly, col, title, colorbar):
     yb = (H - top - ha) / 2
     ax = fig.add_axes([0.3 / W, yb / H, wa / W, ha / H])
     ax.add_collection(PolyCollection(poly, facecolors=col, edgecolors=col, linewidths=0.6, antialiaseds=False))
+    for L in lines:
+        ax.plot(L[:, 0], L[:, 1], "-", color="black", lw=1.6, alpha=0.85, solid_capstyle="round")
     pad = 0.02 * max(w, h)
     ax.set_xlim(x0 - pad, x1 + pad)
     ax.set_ylim(y0 - pad, y1 + pad)
@@ -353,7 +382,7 @@ def _render_figure(poly, col, title, colorbar):
 
 def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material twist \u03b1 (deg)",
                 view=None, vmin=None, vmax=None, cmap="coolwarm", others=(), color=(0.85, 0.45, 0.4),
-                max_faces=None, dpi=None):
+                max_faces=None, dpi=None, period=None, lines=()):
     """Render a (shaded) mesh to a PNG, headless.
 
     Orthographic view from :func:`view_basis` (side-on, equal aspect), faces
@@ -388,6 +417,13 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
         read at call time.
     dpi : int, optional
         Default ``tolerances.VIZ_DPI``.
+    period : float, optional
+        The scalars are periodic (an angle: 360 for degrees): a face gets the
+        circular mean of its corners, so there is no seam where they wrap, and
+        a decimated copy takes each vertex's value from the nearest original
+        vertex instead of interpolating across the wrap.
+    lines : sequence of (k, 3) float64
+        Polylines (e.g. the fitted axis) drawn over the mesh, in black.
 
     Returns
     -------
@@ -418,13 +454,14 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
     dpi = tol.VIZ_DPI if dpi is None else dpi
     cm = _colormap(cmap)
     meshes = [(V, F, S, True)] + [(*as_mesh(Vo, Fo), None, False) for Vo, Fo in others]
-    meshes = [(*_decimate(v, f, s, max_faces), main) if len(f) > max_faces else (v, f, s, main)
+    meshes = [_decimated(v, f, s, max_faces, period) + (main,) if len(f) > max_faces else (v, f, s, main)
               for v, f, s, main in meshes]
     basis = view_basis(V if view is None else np.concatenate([m[0] for m in meshes]), view)
     norm = Normalize(*_symmetric_range(S if S is not None else [0.0], vmin, vmax))
-    poly, col = _shaded_polygons(meshes, basis, norm, cm, color)
+    poly, col = _shaded_polygons(meshes, basis, norm, cm, color, period)
     bar = None if S is None else (ScalarMappable(norm=norm, cmap=cm), cbar_label)
-    fig = _render_figure(poly, col, title, bar)
+    drawn = [np.asarray(L, float) @ basis[:2].T for L in lines]
+    fig = _render_figure(poly, col, title, bar, drawn)
     _save_png(fig, path, dpi, facecolor="white")
     log.info("rendered %s (%d faces)", path, len(poly))
     return Path(path)
