@@ -247,11 +247,11 @@ def twist_about_axis(V, gc, alpha):
 # 3.2k-vertex coronary with a stenosis (L = 60 r, about 30 vertices per axis node: the recovered
 # axis moves under the twist), and a Y whose paths are only 12.3-12.7 radii long (a ramp over
 # 40 % of it changes over 5 radii, which the half-radius smoothing of alpha rounds off).
-# Measured for issue #12 (ramp, uniform, sinusoid):
+# Measured for issue #12, with the fit's outlier set fixed once the axis settles (ramp, uniform, sinusoid):
 #   lumen     0.259 / -0.60 %, 0.171 / -0.094 %, 0.118 / -0.40 %
-#   coronary  0.371 / 0.90 %,  2.297 / -0.99 %,  1.602 / -0.62 %
-#   Y path 1  1.657 / -5.28 %, 0.879 / -0.37 %,  0.814 / -2.97 %
-#   Y path 2  1.716 / -5.47 %, 0.624 / -0.15 %,  0.929 / -3.43 %
+#   coronary  0.195 / 0.48 %,  1.568 / -0.66 %,  1.071 / -0.39 %
+#   Y path 1  1.704 / -5.38 %, 0.966 / -0.41 %,  0.85 / -2.92 %
+#   Y path 2  1.755 / -5.56 %, 0.599 / -0.14 %,  0.95 / -3.41 %
 RAMP = TWISTS["ramp_part"]
 REAL_TWISTS = {  # alpha(s), alpha'(s)
     "quarter_ramp": (lambda s: 0.5 * RAMP[0](s), lambda s: 0.5 * RAMP[1](s)),  # a quarter turn over 40 %
@@ -266,9 +266,9 @@ REAL_MESHES = {  # name: (file, ends)
 }
 README_REAL = {
     "lumen": {"quarter_ramp": (0.26, 0.6), "uniform_turn": (0.17, 0.09), "sinusoid": (0.12, 0.4)},
-    "coronary": {"quarter_ramp": (0.37, 0.9), "uniform_turn": (2.3, 1.0), "sinusoid": (1.6, 0.6)},
-    "y_path1": {"quarter_ramp": (1.7, 5.3), "uniform_turn": (0.88, 0.4), "sinusoid": (0.81, 3.0)},
-    "y_path2": {"quarter_ramp": (1.7, 5.5), "uniform_turn": (0.62, 0.15), "sinusoid": (0.93, 3.4)},
+    "coronary": {"quarter_ramp": (0.2, 0.5), "uniform_turn": (1.6, 0.7), "sinusoid": (1.1, 0.4)},
+    "y_path1": {"quarter_ramp": (1.7, 5.4), "uniform_turn": (0.97, 0.41), "sinusoid": (0.85, 2.9)},
+    "y_path2": {"quarter_ramp": (1.8, 5.6), "uniform_turn": (0.6, 0.14), "sinusoid": (0.95, 3.4)},
 }
 
 
@@ -311,13 +311,13 @@ def test_imposed_twist_on_real_meshes(real_meters, mesh, twist):
 
 
 def test_short_y_path_error_is_the_smoothing(real_meters):
-    """README: on the short Y path the ramp's raw Eq. 7 bins are within 0.55 degrees, and
-    smoothing=0.5 brings it to 0.53 degrees and 1.4 % (measured 0.551, 0.534, -1.38 %)."""
+    """README: on the short Y path the ramp's raw Eq. 7 bins are within 0.6 degrees, and
+    smoothing=0.5 brings it to 0.58 degrees and 1.5 % (measured 0.600, 0.58, -1.48 %)."""
     V, F, gc, meter = real_meters("y_path1")
     prof, _, _ = real_errors(meter, V, gc, "quarter_ramp")
     alpha = REAL_TWISTS["quarter_ramp"][0]
     inner = (prof.bin_s > 0.05) & (prof.bin_s < 0.95)
     raw = np.degrees(np.abs(prof.bin_alpha - (alpha(prof.bin_s) - alpha(0)))[inner].max())
-    assert raw <= FACTOR * 0.55, raw
+    assert raw <= FACTOR * 0.6, raw
     _, err, rel = real_errors(TorsionMeter(V, F, gc, smoothing=0.5), V, gc, "quarter_ramp")
-    assert err <= FACTOR * 0.53 and abs(rel) <= FACTOR * 1.4, (err, rel)
+    assert err <= FACTOR * 0.58 and abs(rel) <= FACTOR * 1.5, (err, rel)

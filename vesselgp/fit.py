@@ -170,12 +170,15 @@ def _solve(N, rhs):
     return checked_solution(x)
 
 
-def _robust_weights(s, local, jac, area, radii, inside):
+def _robust_weights(s, local, jac, area, radii, inside, rejected=None):
     """Area weights divided by the tube-map Jacobian, zeroed outside the axis range
-    and for vertices far from the fitted wall."""
+    and for vertices far from the fitted wall (or for ``rejected`` ones, when given)."""
     rho = np.hypot(local[:, 1], local[:, 2])
     ok = inside & (jac > tol.GC_MIN_STRETCH)
     w = np.where(ok, area / np.where(ok, jac, 1.0), 0.0)
+    if rejected is not None:
+        w[rejected] = 0.0
+        return w
     if radii is None:
         return w
     r = np.interp(s, np.linspace(0, 1, len(radii)), radii)
@@ -457,6 +460,7 @@ class _Iteration:
     radii: np.ndarray | None
     count: int
     converged: bool
+    rejected: np.ndarray | None = None
 
 
 def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
@@ -468,7 +472,8 @@ def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
     inside = (s_raw > 0) & (s_raw < 1) & ~ends_s
     s = np.clip(s_raw, 0, 1)
     local, jac = local_coords(axis, Vs, s)
-    w = _robust_weights(s, local, jac, areas, it.radii, inside)
+    frozen = it.rejected is not None
+    w = _robust_weights(s, local, jac, areas, it.radii, inside, it.rejected)
     _, fr_nodes = axis.at(np.linspace(0, 1, K))
     corr = circle_fit_correction(fr_nodes, nodes, s, local, w, lam, rscale)
     nodes = nodes + corr
@@ -478,8 +483,13 @@ def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
     new_arc = chord_length(nodes)
     s_next = np.interp(s, np.linspace(0, 1, K), new_arc / new_arc[-1])
     log.debug("GC iteration %d: axis moved %.3g (radius %.3g)", it.count + 1, step, rscale)
+    # robust reweighting until the axis has nearly settled, then a fixed outlier set (IRLS):
+    # vertices near the outlier threshold would otherwise toggle and the fixed point drift
+    rejected = it.rejected
+    if not frozen and it.radii is not None and step < tol.GC_REWEIGHT_UNTIL * rscale:
+        rejected = (w == 0) & inside & (jac > tol.GC_MIN_STRETCH)
     return _Iteration(resample_arclength(nodes, K), s_next, radii, it.count + 1,
-                      step < tol.GC_CONVERGENCE * rscale)
+                      step < tol.GC_CONVERGENCE * rscale, rejected)
 
 
 def _cylinder(axis, V, s_raw, end_region, area, it, mu, lam, end_ids):
