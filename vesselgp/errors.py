@@ -50,6 +50,10 @@ class OptionError(VesselError):
     """A keyword option has a value the function does not know (e.g. a method name)."""
 
 
+class TreeDependencyError(OptionError):
+    """scikit-image, needed to triangulate synthetic trees, is not installed (``pip install vesselgp[trees]``)."""
+
+
 __all__ = [
     "VesselError",
     "MeshReadError",
@@ -62,4 +66,5 @@ __all__ = [
     "OptimizationError",
     "OptionError",
     "DecimationError",
+    "TreeDependencyError",
 ]

@@ -69,6 +69,9 @@ from .rotations import (
     wrap_angle,
 )
 
+from .synthetic_tree import (THREE_TIP_PARENTS, SyntheticTree, TreeBranch, TreeEnd, TreePath, TreeTruth,  # noqa: E402
+                             synthetic_tree, tree_parents)
+
 __all__ = [
     "named_curve",
     "CURVE_NAMES",
@@ -79,6 +82,15 @@ __all__ = [
     "paper_case",
     "JoinCase",
     "signed_volume",
+    # vessel trees (vesselgp.synthetic_tree), re-exported here
+    "synthetic_tree",
+    "tree_parents",
+    "THREE_TIP_PARENTS",
+    "SyntheticTree",
+    "TreeTruth",
+    "TreeBranch",
+    "TreeEnd",
+    "TreePath",
 ]
 
 log = logging.getLogger(__name__)

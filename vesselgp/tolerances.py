@@ -154,6 +154,61 @@ SYNTH_REMESH_JITTER = 0.3
 #: Largest allowed section radius times axis curvature (1 = the tube folds over itself).
 SYNTH_MAX_FOLD = 0.9
 
+# --- synthetic vessel trees (vesselgp.synthetic_tree) ---------------------
+#: Centre-line samples of each branch kept in the truth (uniform in arc length).
+TREE_BRANCH_SAMPLES = 201
+#: Dense samples per branch seeding the foot-point search (Newton refines them).
+TREE_SEED_SAMPLES = 801
+#: Newton steps of the foot-point search on the exact cubic (quadratic convergence
+#: from the nearest dense sample: machine precision after about four).
+TREE_FOOT_NEWTON_STEPS = 5
+#: Newton steps of the foot-point search started from a nearby foot point.
+TREE_FOOT_WARM_STEPS = 3
+#: Grid values closer to zero than this many voxels are pushed to it (keeping their sign)
+#: before marching cubes, so no vertex lands next to a grid point (no sliver triangles).
+TREE_MC_SNAP = 0.1
+#: Newton steps moving marching-cubes vertices onto the exact zero set.
+TREE_PROJECTION_STEPS = 4
+#: Half-width of the band where the grid values are exact, in voxels (plus the blend width):
+#: marching cubes interpolates only along grid edges the zero set crosses, whose ends are
+#: within one voxel of it (|grad f| is about 1); farther values only need their sign.
+TREE_BAND_VOXELS = 1.5
+#: Dense samples covered by one bounding box of the narrow-band evaluation.
+TREE_CHUNK_SAMPLES = 24
+#: Quadrature points of a branch's arc length (trapezoid rule on the speed).
+TREE_ARCLENGTH_POINTS = 4001
+#: Angle between the root's start and end tangents, degrees.
+TREE_ROOT_BEND_DEG = 25.0
+#: A child's end tangent makes this fraction of the branch angle with its parent's
+#: end tangent (it turns back towards the parent's direction, as real branches do).
+TREE_CHILD_END_FRACTION = 0.5
+#: Out-of-plane offset of a branch's end point, as a fraction of its chord (its size is
+#: drawn in [0.5, 1] times this, with a random sign): makes every centre line non-planar.
+TREE_OUT_OF_PLANE = 0.15
+#: Largest random turn (radians) of a child's end tangent about its parent's end tangent.
+TREE_END_TWIST = 0.4
+#: Largest random turn (radians) of a bifurcation plane about its quarter-turn position.
+TREE_PLANE_JITTER = 0.3
+#: Gap required between tubes that do not share a junction (and between siblings away from
+#: their junction), as a fraction of the smaller radius.
+TREE_CLEARANCE = 0.5
+#: Largest curvature times (radius + band) of a centre line: the foot point stays unique.
+TREE_MAX_KAPPA_R = 0.7
+#: Branches other than the root stay this many voxels above the root plane (plus their radius).
+TREE_ROOT_PLANE_MARGIN = 2.0
+#: Smallest tube radius, in voxels: thinner tubes lose their round sections.
+TREE_MIN_RADIUS_VOXELS = 2.5
+#: Marching-cubes vertices per (voxel^2) of surface area (measured), used to choose the voxel
+#: for ``target_vertices``.
+TREE_MC_VERTEX_DENSITY = 1.45
+#: Accuracy checks leave out points within this many radii of a junction (the parent's
+#: end radius) ...
+TREE_JUNCTION_RADII = 2.0
+#: ... and within this many radii of a tip (its end centre).
+TREE_TIP_RADII = 1.5
+#: Rounds of the well-composed repair of a voxel occupancy before giving up.
+TREE_WELL_COMPOSED_ROUNDS = 50
+
 # --- deformation and joining (vesselgp.deform, vesselgp.join) ---------------
 #: ARAP iterations refining the rod placement (method "rod_arap"); the rod start is
 #: already close to an ARAP minimum, more iterations only cost time.
