@@ -236,11 +236,13 @@ def test_errors_are_one_line_exit_2(gen, tmp_path, capsys):
     (tmp_path / "file").write_text("x")
     rc, o, e = run(["fit", gen / "vessel.ply", "-o", tmp_path / "file"], capsys)
     assert_error(rc, o, e, "not a folder")
-    # argparse usage errors exit 2 too
-    assert main(["fit"]) == 2
-    assert main(["nosuchcommand"]) == 2
-    assert main(["demo", "--resolution", "abc"]) == 2
-    capsys.readouterr()
+    # argparse usage errors exit 2 too, with one line naming the command's --help
+    rc, o, e = run(["fit"], capsys)
+    assert_error(rc, o, e, "the following arguments are required: mesh (see 'vesselgp fit --help')")
+    rc, o, e = run(["nosuchcommand"], capsys)
+    assert_error(rc, o, e, "invalid choice: 'nosuchcommand'")
+    rc, o, e = run(["demo", "--resolution", "abc"], capsys)
+    assert_error(rc, o, e, "argument --resolution: invalid float value: 'abc'")
 
 
 def test_never_overwrites_an_input(cases, tmp_path, capsys):

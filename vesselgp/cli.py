@@ -4,6 +4,7 @@ A thin layer over the library: argument parsing, calls into :mod:`vesselgp`,
 writing outputs (atomically, never over an input file), printing. Bad input
 (any :class:`vesselgp.VesselError`) ends with a one-line message
 ``vesselgp: error: ...`` on stderr and exit code 2, as do usage errors.
+Commands that read meshes take ``--units``/``--scale`` and report in millimetres.
 
 Examples
 --------
@@ -27,6 +28,7 @@ from . import tolerances as tol
 from .deform import METHODS, Frame
 from .errors import VesselError
 from .io import read_json, to_json, write_json
+from .mesh.scale import UNITS_TO_MM
 from .pipeline import OutputFolder
 
 log = logging.getLogger("vesselgp.cli")
@@ -35,25 +37,35 @@ EPILOG = {
     "main": """examples:
   vesselgp demo                                   both paper cases -> ./vesselgp-demo/
   vesselgp generate --curve arc --twist 0 -o arc  a synthetic vessel (vessel.ply, truth.json)
+  vesselgp ends aorta.stl                         list the vessel's ends (for --ends I J)
   vesselgp fit vessel.stl -o fit                  axis.json/.csv/.vtp/.ply, shaded mesh
   vesselgp torsion rest.ply deformed.ply -o tor   twist profile, energy, shaded mesh
   vesselgp join vessel.ply --case case.json -o j  minimum-torsion end rotation, Fig. 2-4 outputs
   vesselgp clean raw.stl -o cleaned               repaired mesh + report
 
+meshes in metres, centimetres or micrometres: pass --units m|cm|um (or --scale
+FACTOR, millimetres per mesh unit); lengths in every report are then millimetres.
+
 run 'vesselgp <command> --help' for the options of a command.""",
     "fit": """examples:
   vesselgp fit vessel.stl -o fit
-  vesselgp fit aorta.ply --ends 0 2 --axis-format vtp -o fit --json""",
+  vesselgp fit aorta.ply --ends 0 2 --axis-format vtp -o fit --json
+  vesselgp fit vessel_in_metres.stl --units m -o fit     (lengths reported in mm)""",
     "torsion": """examples:
   vesselgp generate --curve straight --deformed-twist 90 -o gen
-  vesselgp torsion gen/vessel.ply gen/deformed.ply -o tor""",
+  vesselgp torsion gen/vessel.ply gen/deformed.ply -o tor
+  vesselgp torsion rest_y.stl deformed_y.stl --ends 0 2 -o tor""",
     "join": """examples:
   vesselgp generate --paper-cases -o cases
   vesselgp join cases/case1/vessel.ply --case cases/case1/case.json -o join1
   vesselgp join v.ply --fixed 0-99 --moving @moving.txt --target-origin 40 2 0 \\
       --target-tangent 1 0 0 --target-normal 0 0 1 -o join""",
     "clean": """examples:
-  vesselgp clean segmentation.stl -o cleaned --json""",
+  vesselgp clean segmentation.stl -o cleaned --json
+  vesselgp clean voxel_staircase.stl --smooth 20 --units m -o cleaned""",
+    "ends": """examples:
+  vesselgp ends aorta.stl
+  vesselgp ends aorta_in_metres.stl --units m --json -o ends""",
     "generate": """examples:
   vesselgp generate --curve helix --radius 1.5 --twist 45 -o helix
   vesselgp generate --curve arc --deformed-curve s_curve --deformed-twist 90 -o pair
@@ -65,6 +77,23 @@ run 'vesselgp <command> --help' for the options of a command.""",
 
 
 # ----------------------------------------------------------------------------- helpers
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line ``vesselgp: error: ...`` (exit code 2)."""
+
+    def error(self, message):
+        self.exit(2, f"vesselgp: error: {_one_line(message)} (see '{self.prog} --help')\n")
+
+
+def _positive_float(text):
+    try:
+        x = float(text)
+    except ValueError:
+        x = float("nan")
+    if not (np.isfinite(x) and x > 0):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a positive number")
+    return x
 
 
 def _ids(text, name):
@@ -112,6 +141,11 @@ def _emit(args, summary, text):
         print(text)
 
 
+def _lengths_in(d):
+    """'lengths in mm', or, when the mesh's units were not given, that they are taken as mm."""
+    return "lengths in mm" if d["input_units"] != "mm (assumed)" else "lengths in mesh units, taken as mm"
+
+
 def _files_text(out):
     return "\n".join(f"  {f}" for f in out.files)
 
@@ -122,19 +156,20 @@ def _files_text(out):
 def cmd_fit(args):
     out = OutputFolder(args.output, [args.mesh], args.overwrite)
     gc, d = pipeline.run_fit(args.mesh, out, ends=args.ends, n_nodes=args.nodes, axis_format=args.axis_format,
-                             shade=args.shade, units=args.units, render=not args.no_png)
+                             shade=args.shade, units=args.units, scale=args.scale, render=not args.no_png)
     summary = {"command": "fit", **{k: d[k] for k in ("length", "mean_radius", "n_nodes", "iterations",
-                                                      "converged", "time_s")}, "files": out.files}
-    _emit(args, summary, f"fitted axis: length {gc.length:.4g}, mean radius {gc.mean_radius:.4g}, "
+                                                      "converged", "time_s", *_UNIT_KEYS)}, "files": out.files}
+    _emit(args, summary, f"fitted axis: length {gc.length:.4g} mm, mean radius {gc.mean_radius:.4g} mm, "
                          f"{len(gc.s)} nodes, {gc.iterations} iterations, {d['time_s']:.2f} s\n{_files_text(out)}")
     return 0
 
 
 def cmd_torsion(args):
     out = OutputFolder(args.output, [args.rest, args.deformed], args.overwrite)
-    prof, d = pipeline.run_torsion(args.rest, args.deformed, out, smoothing=args.smoothing, render=not args.no_png)
+    prof, d = pipeline.run_torsion(args.rest, args.deformed, out, smoothing=args.smoothing, ends=args.ends,
+                                   units=args.units, scale=args.scale, render=not args.no_png)
     summary = {"command": "torsion", **{k: d[k] for k in ("energy", "total_twist_deg", "twist_per_length_deg",
-                                                          "length", "time_s")}, "files": out.files}
+                                                          "length", "time_s", *_UNIT_KEYS)}, "files": out.files}
     _emit(args, summary, f"torsion energy {prof.energy:.4g} (Eq. 8), total twist "
                          f"{d['total_twist_deg']:.2f} deg, {d['time_s']:.2f} s\n{_files_text(out)}")
     return 0
@@ -153,27 +188,38 @@ def cmd_join(args):
         moving=None if args.moving is None else _ids(args.moving, "moving"),
         target=None if args.case is not None else Frame(args.target_origin, args.target_tangent,
                                                           args.target_normal),
-        other=args.other, other_end=None if args.other_end is None else _ids(args.other_end, "other-end"))
+        other=args.other, other_end=None if args.other_end is None else _ids(args.other_end, "other-end"),
+        units=args.units, scale=args.scale)
     out = OutputFolder(args.output, inp["inputs"], args.overwrite)
     out.check(pipeline.JOIN_FILES)
     r = pipeline.run_join(out.dir, inp["V"], inp["F"], inp["fixed"], inp["moving"], inp["target"],
                           other=inp["other"], name=Path(args.vessel).stem, n_curve=args.n_curve,
                           curve_range_deg=args.range, large_deg=args.large, method=args.method,
                           progress=_progress(args), render=not args.no_png)
-    r = {"command": "join", "vessel": str(args.vessel), **r}
+    r = {"command": "join", "vessel": str(args.vessel), **inp["units"], **r}
     write_json(out("result.json"), r)
     out.files.extend(str(out.dir / f) for f in r["files"].values())
     summary = {k: r[k] for k in ("optimum_angle_deg", "energy", "total_twist_deg", "n_evals", "status",
                                  "grid_scan", "setup_time_s", "time_s")}
-    summary.update(command="join", large_torsion=r["large_torsion"], files=out.files)
+    summary.update(command="join", large_torsion=r["large_torsion"], **inp["units"], files=out.files)
     _emit(args, summary, pipeline.summary_table([r]) + "\n" + _files_text(out))
     return 0
 
 
 def cmd_clean(args):
     out = OutputFolder(args.output, [args.mesh], args.overwrite)
-    rep, d = pipeline.run_clean(args.mesh, out, fmt=args.format)
+    rep, d = pipeline.run_clean(args.mesh, out, fmt=args.format, smooth=args.smooth, units=args.units,
+                                scale=args.scale)
     _emit(args, {"command": "clean", **d, "files": out.files}, rep.summary() + "\n" + _files_text(out))
+    return 0
+
+
+def cmd_ends(args):
+    out = OutputFolder(args.output, [args.mesh], args.overwrite)
+    d = pipeline.run_ends(args.mesh, out, units=args.units, scale=args.scale)
+    _emit(args, {**d, "files": out.files},
+          f"{d['n_ends']} ends of {args.mesh} ({_lengths_in(d)}; --ends I J takes these indices)\n"
+          + pipeline.ends_table(d) + "\n" + _files_text(out))
     return 0
 
 
@@ -216,6 +262,20 @@ def cmd_demo(args):
 # ----------------------------------------------------------------------------- parser
 
 
+#: Report fields of the mesh's units (pipeline.read_mesh_in), copied into the JSON summaries.
+_UNIT_KEYS = ("units", "input_units", "to_mm")
+
+
+def _units_options(p, what="the mesh"):
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--units", choices=tuple(UNITS_TO_MM),
+                   help=f"length unit of {what}: converted into millimetres, and every length reported is in mm "
+                        "(default: taken as mm, with a warning naming this option when its size looks like m, cm "
+                        "or um)")
+    g.add_argument("--scale", type=_positive_float, metavar="FACTOR",
+                   help="millimetres per mesh unit, instead of --units (e.g. 25.4 for inches)")
+
+
 def _common(p, default_out):
     p.add_argument("-o", "--output", default=default_out, metavar="DIR",
                    help=f"output folder (default: ./{default_out}); must be new or empty unless --overwrite")
@@ -225,34 +285,28 @@ def _common(p, default_out):
     p.add_argument("-v", "--verbose", action="count", default=0, help="log progress (-vv: debug)")
 
 
-def build_parser():
-    """The ``argparse`` parser of the ``vesselgp`` command."""
-    from ._version import __version__
-
-    fmt = argparse.RawDescriptionHelpFormatter
-    ap = argparse.ArgumentParser(
-        prog="vesselgp", formatter_class=fmt, epilog=EPILOG["main"],
-        description="Torsion of blood vessels: generalized-cylinder fit, material torsion against a "
-                    "rotation-minimizing frame, minimum-torsion joining.")
-    ap.add_argument("--version", action="version", version=f"vesselgp {__version__}")
-    sub = ap.add_subparsers(dest="command", metavar="COMMAND")
-
+def _add_fit(sub, fmt):
+    """The ``fit`` subcommand."""
     p = sub.add_parser("fit", help="fit a generalized cylinder (axis, radius, frames) to a vessel mesh",
                        description="Fit a generalized cylinder (paper Eq. 1-5): axis, radius, "
                                    "rotation-minimizing frames.", formatter_class=fmt, epilog=EPILOG["fit"])
     p.add_argument("mesh", help="vessel mesh (.stl .ply .obj .off .vtp)")
     p.add_argument("--ends", type=int, nargs=2, metavar=("I", "J"),
-                   help="indices of the two ends to fit between (for meshes with more than two ends)")
+                   help="indices of the two ends to fit between (for meshes with more than two ends; "
+                        "'vesselgp ends' lists them)")
     p.add_argument("--nodes", type=int, help="number of axis nodes (default: one per half radius)")
     p.add_argument("--axis-format", choices=("vtp", "ply", "both"), default="both",
                    help="polyline file(s) of the axis (default: both)")
     p.add_argument("--shade", choices=("theta", "radius", "none"), default="theta",
                    help="write the mesh coloured by angle about the axis or by distance to it (default: theta)")
-    p.add_argument("--units", default="mesh units", help="length unit label for the report")
+    _units_options(p)
     p.add_argument("--no-png", action="store_true", help="do not render PNGs")
     _common(p, "vesselgp-fit")
     p.set_defaults(func=cmd_fit)
 
+
+def _add_torsion(sub, fmt):
+    """The ``torsion`` subcommand."""
     p = sub.add_parser("torsion", help="material torsion of a deformed vessel (profile, energy, shaded mesh)",
                        description="Material torsion of a deformed vessel against its RMF (paper Eq. 6-8).",
                        formatter_class=fmt, epilog=EPILOG["torsion"])
@@ -260,10 +314,17 @@ def build_parser():
     p.add_argument("deformed", help="deformed mesh (same vertices and faces)")
     p.add_argument("--smoothing", type=float, default=tol.TORSION_SMOOTHING,
                    help="smoothing length of alpha(s) in axis-node spacings (default: %(default)s)")
+    p.add_argument("--ends", type=int, nargs=2, metavar=("I", "J"),
+                   help="indices of the rest mesh's two ends to fit between (see 'vesselgp ends'; for meshes "
+                        "with more than two ends)")
+    _units_options(p, "both meshes")
     p.add_argument("--no-png", action="store_true", help="do not render PNGs")
     _common(p, "vesselgp-torsion")
     p.set_defaults(func=cmd_torsion)
 
+
+def _add_join(sub, fmt):
+    """The ``join`` subcommand."""
     p = sub.add_parser("join", help="join a vessel end to a target with the least torsion",
                        description="Minimum-torsion joining (paper Section 2.3): the end rotation of least "
                                    "torsion energy, shaded meshes at the optimum and at large torsion, the "
@@ -291,19 +352,43 @@ def build_parser():
                    help="rotation from the optimum of the large-torsion mesh, degrees (default: %(default)s)")
     p.add_argument("--method", default="rod_arap", choices=METHODS,
                    help="deformation method (default: %(default)s)")
+    _units_options(p, "both meshes and of the target origin")
     p.add_argument("--no-png", action="store_true", help="do not render PNGs")
     _common(p, "vesselgp-join")
     p.set_defaults(func=cmd_join)
 
+
+def _add_clean(sub, fmt):
+    """The ``clean`` subcommand."""
     p = sub.add_parser("clean", help="repair a mesh (duplicates, non-manifold parts, small pieces)",
-                       description="Repair a segmented vessel mesh and keep its largest piece.",
+                       description="Repair a segmented vessel mesh and keep its largest piece; --smooth N "
+                                   "then removes a voxel staircase (Taubin smoothing).",
                        formatter_class=fmt, epilog=EPILOG["clean"])
     p.add_argument("mesh", help="input mesh")
     p.add_argument("--format", choices=("ply", "stl", "obj", "off", "vtp"), default="ply",
                    help="format of the cleaned mesh (default: ply)")
+    p.add_argument("--smooth", type=int, default=0, metavar="N",
+                   help="N iterations of Taubin (volume-preserving) smoothing after the repairs, e.g. 20 for a "
+                        "voxel staircase (default: 0, off)")
+    _units_options(p, "the mesh (the cleaned mesh is written in mm)")
     _common(p, "vesselgp-clean")
     p.set_defaults(func=cmd_clean)
 
+
+def _add_ends(sub, fmt):
+    """The ``ends`` subcommand."""
+    p = sub.add_parser("ends", help="list the ends of a vessel mesh (kind, radius, centre, direction)",
+                       description="List the ends of a vessel mesh (open boundary loops, flat caps or rounded "
+                                   "ends), with the indices that --ends I J of fit and torsion take.",
+                       formatter_class=fmt, epilog=EPILOG["ends"])
+    p.add_argument("mesh", help="vessel mesh (.stl .ply .obj .off .vtp)")
+    _units_options(p)
+    _common(p, "vesselgp-ends")
+    p.set_defaults(func=cmd_ends)
+
+
+def _add_generate(sub, fmt):
+    """The ``generate`` subcommand."""
     p = sub.add_parser("generate", help="synthetic vessels with known axis and twist, or the paper's cases",
                        description="Generate synthetic vessels swept with the RMF (exact ground truth), "
                                    "or the paper's two joining cases.", formatter_class=fmt,
@@ -327,6 +412,9 @@ def build_parser():
     _common(p, "vesselgp-generate")
     p.set_defaults(func=cmd_generate)
 
+
+def _add_demo(sub, fmt):
+    """The ``demo`` subcommand."""
     p = sub.add_parser("demo", help="run both paper cases on generated data (figures, report, table)",
                        description="Run the paper's two joining cases (Section 3) on generated vessels and "
                                    "write torsion-shaded meshes (PLY) and renders (PNG) at the optimum and at "
@@ -340,6 +428,21 @@ def build_parser():
     p.add_argument("--no-png", action="store_true", help="do not render PNGs")
     _common(p, "vesselgp-demo")
     p.set_defaults(func=cmd_demo)
+
+
+def build_parser():
+    """The ``argparse`` parser of the ``vesselgp`` command."""
+    from ._version import __version__
+
+    fmt = argparse.RawDescriptionHelpFormatter
+    ap = _Parser(
+        prog="vesselgp", formatter_class=fmt, epilog=EPILOG["main"],
+        description="Torsion of blood vessels: generalized-cylinder fit, material torsion against a "
+                    "rotation-minimizing frame, minimum-torsion joining.")
+    ap.add_argument("--version", action="version", version=f"vesselgp {__version__}")
+    sub = ap.add_subparsers(dest="command", metavar="COMMAND")
+    for add in (_add_fit, _add_torsion, _add_join, _add_clean, _add_ends, _add_generate, _add_demo):
+        add(sub, fmt)
     return ap
 
 
@@ -367,7 +470,8 @@ def main(argv=None):
     logging.basicConfig(level=level, format="vesselgp: %(message)s", stream=sys.stderr)
     logging.getLogger("vesselgp").setLevel(level)
     try:
-        return int(args.func(args) or 0)
+        with pipeline.library_scale_warnings_replaced():
+            return int(args.func(args) or 0)
     except VesselError as exc:
         print(f"vesselgp: error: {_one_line(exc)}", file=sys.stderr)
         return 2

@@ -9,17 +9,21 @@ folder, calls the library and writes every output file (atomically, through
 * :func:`run_torsion`: material torsion (Eq. 6-8) of a rest/deformed pair;
 * :func:`run_join`: minimum-torsion join (Section 2.3) with the figures of paper Figs. 2-4;
 * :func:`run_demo`: both of the paper's joining cases (Section 3) on generated data;
+* :func:`run_ends`: the ends of a vessel mesh (:func:`vesselgp.vessel_ends`);
 * :func:`run_clean`, :func:`run_generate`, :func:`run_paper_cases`.
 
-Angles are radians in the API and degrees in reports and figures.
+Angles are radians in the API and degrees in reports and figures. Mesh files
+are read through :func:`read_mesh_in`, which converts them into millimetres
+(``units``/``scale``); every report records the input's units and the factor.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import os
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -28,10 +32,12 @@ from . import tolerances as tol
 from .deform import Frame
 from .errors import MismatchError, VesselError
 from .fit import fit_generalized_cylinder
+from .inside import format_point
 from .io import (read_case, read_mesh, to_json, write_case, write_csv, write_json, write_mesh,
                  write_polyline)
 from .join import JoinProblem, minimize_torsion
-from .mesh import clean_mesh, mesh_scale, stitch
+from .mesh import clean_mesh, mesh_scale, stitch, vessel_ends
+from .mesh.scale import UNIT_NAMES, units_factor
 from .synthetic import deform_synthetic, paper_case, synthetic_vessel
 from .torsion import TorsionMeter
 from .viz import plot_energy_curve, plot_torsion_profile, render_mesh, torsion_colors
@@ -39,8 +45,9 @@ from .viz import plot_energy_curve, plot_torsion_profile, render_mesh, torsion_c
 log = logging.getLogger(__name__)
 
 __all__ = [
-    "OutputFolder", "REPORT_FIELDS", "gc_to_dict", "profile_to_dict", "summary_table", "join_inputs",
-    "run_fit", "run_torsion", "run_join", "run_demo", "run_clean", "run_generate", "run_paper_cases",
+    "OutputFolder", "REPORT_FIELDS", "gc_to_dict", "profile_to_dict", "summary_table", "ends_table", "join_inputs",
+    "read_mesh_in", "library_scale_warnings_replaced", "run_fit", "run_torsion", "run_join", "run_demo",
+    "run_clean", "run_ends", "run_generate", "run_paper_cases",
 ]
 
 #: Fields of each case in ``report.json`` (and of ``result.json`` of ``vesselgp join``).
@@ -122,10 +129,97 @@ class OutputFolder:
         return p
 
 
+# ----------------------------------------------------------------------------- units
+
+
+def read_mesh_in(path, units=None, scale=None):
+    """Read a mesh file and bring it into millimetres.
+
+    Without ``units`` and ``scale`` the mesh is taken to be in millimetres;
+    when its size suggests metres, centimetres or micrometres
+    (:func:`vesselgp.mesh_scale`) a WARNING names the ``--units`` option that
+    converts it. With them, a WARNING says when the converted mesh still does
+    not look like millimetres.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    units : {"mm", "cm", "m", "um"}, optional
+        The mesh's length unit.
+    scale : float, optional
+        Millimetres per mesh unit (instead of ``units``).
+
+    Returns
+    -------
+    V : (n, 3) float64
+        Vertices in millimetres.
+    F : (m, 3) int64
+    units : dict
+        ``{"units": "mm", "input_units": label, "to_mm": factor}`` for the
+        reports: ``label`` is ``units``, ``"<scale> mm"`` or ``"mm (assumed)"``.
+
+    Raises
+    ------
+    OptionError
+        Unknown ``units``, a bad ``scale``, or both given.
+    """
+    factor, label = units_factor(units, scale)
+    V, F = read_mesh(path)
+    if factor != 1.0:
+        V = V * factor
+    _warn_units(path, mesh_scale(V, F), label)
+    return V, F, {"units": "mm", "input_units": label or "mm (assumed)", "to_mm": factor}
+
+
+def _warn_units(path, sc, label):
+    """Log a WARNING naming the option to pass when a mesh in millimetres does not look like it."""
+    if sc.warning is None:
+        return
+    looks = f"bounding-box diagonal {sc.bbox_diagonal:.3g} looks like {UNIT_NAMES[sc.units_guess]}"
+    if label is None:
+        log.warning("%s: %s, not millimetres; pass --units %s to convert it (reports are then in millimetres), "
+                    "or --units mm if it is in millimetres", path, looks, sc.units_guess)
+    else:
+        log.warning("%s converted from %s into millimetres has a bounding-box diagonal of %.3g mm, not the 10-500 "
+                    "of a vessel; check --units/--scale", path, label, sc.bbox_diagonal)
+
+
+class _LibraryScaleWarnings(logging.Filter):
+    """Drops the library's WARNINGs that a mesh's units look unusual (:func:`read_mesh_in` gave its own)."""
+
+    def filter(self, record):
+        msg = record.getMessage()
+        return not (record.levelno == logging.WARNING
+                    and any(f"looks like {name}" in msg for name in UNIT_NAMES.values()))
+
+
+#: Loggers of the library functions that warn about a mesh's units.
+_SCALE_LOGGERS = ("vesselgp.fit", "vesselgp.mesh.clean", "vesselgp.mesh.ends")
+
+
+@contextlib.contextmanager
+def library_scale_warnings_replaced():
+    """While active, :func:`read_mesh_in`'s unit warnings (naming ``--units``) replace the library's.
+
+    The library's own (:func:`vesselgp.clean_mesh`, :func:`vesselgp.fit_generalized_cylinder`)
+    advise multiplying V; the command line runs every command in this context,
+    so a mesh that looks like metres gets one warning, the one naming the option.
+    """
+    filt = _LibraryScaleWarnings()
+    loggers = [logging.getLogger(n) for n in _SCALE_LOGGERS]
+    for lg in loggers:
+        lg.addFilter(filt)
+    try:
+        yield
+    finally:
+        for lg in loggers:
+            lg.removeFilter(filt)
+
+
 # ----------------------------------------------------------------------------- library results as dicts
 
 
-def gc_to_dict(gc, units="mesh units"):
+def gc_to_dict(gc, units="mm"):
     """JSON-ready description of a :class:`vesselgp.GeneralizedCylinder` (``axis.json`` of ``vesselgp fit``)."""
     return {
         "units": units,
@@ -193,9 +287,11 @@ def _progress_iter(progress, it, desc):
 # ----------------------------------------------------------------------------- fit, torsion
 
 
-def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="theta", units="mesh units",
+def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="theta", units=None, scale=None,
             render=True):
     """Fit a generalized cylinder to a mesh file and write ``axis.*`` and the shaded mesh into ``out``.
+
+    Lengths in every output are millimetres (see :func:`read_mesh_in`).
 
     Parameters
     ----------
@@ -205,7 +301,10 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
     n_nodes : int, optional
     axis_format : {"vtp", "ply", "both"}
     shade : {"theta", "radius", "none"}
-    units : str
+    units : {"mm", "cm", "m", "um"}, optional
+        Length unit of the mesh file (default: millimetres).
+    scale : float, optional
+        Millimetres per mesh unit (instead of ``units``).
     render : bool
 
     Returns
@@ -213,11 +312,11 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
     (GeneralizedCylinder, dict)
         The fit and the contents of ``axis.json``.
     """
-    V, F = read_mesh(mesh)
+    V, F, uinfo = read_mesh_in(mesh, units, scale)
     t0 = time.perf_counter()
     gc = fit_generalized_cylinder(V, F, ends=ends, n_nodes=n_nodes)
     dt = time.perf_counter() - t0
-    d = gc_to_dict(gc, units=units)
+    d = {**gc_to_dict(gc), **uinfo}
     d.update(bbox_diagonal=float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), input=str(mesh), time_s=dt)
     write_json(out("axis.json"), d)
     fr = gc.frames
@@ -235,7 +334,7 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
             label = "angle \u03b8 about the axis (deg)"
         else:
             val = np.hypot(gc.vertex_local[:, 1], gc.vertex_local[:, 2])
-            lo, hi, cmap, label = float(val.min()), float(val.max()), "viridis", f"distance to the axis ({units})"
+            lo, hi, cmap, label = float(val.min()), float(val.max()), "viridis", "distance to the axis (mm)"
         write_mesh(out(f"mesh_{shade}.ply"), V, F, vertex_colors=torsion_colors(val, lo, hi, cmap),
                    vertex_scalars={shade: val, "s": gc.vertex_s})
         if render:
@@ -245,8 +344,21 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
     return gc, d
 
 
-def run_torsion(rest, deformed, out, *, smoothing=None, render=True):
+def run_torsion(rest, deformed, out, *, smoothing=None, ends=None, units=None, scale=None, render=True):
     """Material torsion of a deformed mesh file against its rest mesh file; writes ``profile.*`` and a shaded mesh.
+
+    Parameters
+    ----------
+    rest, deformed : str or os.PathLike
+        Mesh files with the same vertices and faces.
+    out : OutputFolder
+    smoothing : float, optional
+        Smoothing length of alpha(s) (:class:`vesselgp.TorsionMeter`).
+    ends : (int, int), optional
+        The ends of the rest fit (:func:`vesselgp.fit_generalized_cylinder`).
+    units, scale : optional
+        Length unit of both files, or millimetres per mesh unit (:func:`read_mesh_in`).
+    render : bool
 
     Returns
     -------
@@ -258,15 +370,16 @@ def run_torsion(rest, deformed, out, *, smoothing=None, render=True):
     MismatchError
         When the two meshes do not share vertices and faces.
     """
-    V0, F0 = read_mesh(rest)
-    V1, F1 = read_mesh(deformed)
+    V0, F0, uinfo = read_mesh_in(rest, units, scale)
+    V1, F1, _ = read_mesh_in(deformed, units, scale)
     if V0.shape != V1.shape or F0.shape != F1.shape or not np.array_equal(F0, F1):
         raise MismatchError(f"rest ({len(V0)} vertices, {len(F0)} faces) and deformed ({len(V1)} vertices, "
                             f"{len(F1)} faces) meshes must share vertices and faces")
     t0 = time.perf_counter()
-    prof = TorsionMeter(V0, F0, fit_generalized_cylinder(V0, F0), smoothing=smoothing)(V1)
+    prof = TorsionMeter(V0, F0, fit_generalized_cylinder(V0, F0, ends=ends), smoothing=smoothing)(V1)
     dt = time.perf_counter() - t0
-    d = {"command": "torsion", "rest": str(rest), "deformed": str(deformed), "time_s": dt, **profile_to_dict(prof)}
+    d = {"command": "torsion", "rest": str(rest), "deformed": str(deformed), **uinfo, "time_s": dt,
+         **profile_to_dict(prof)}
     write_json(out("profile.json"), d)
     write_csv(out("profile.csv"), {k: d[k] for k in ("s", "alpha_deg", "dalpha_deg", "curvature", "frenet_torsion")})
     al = np.degrees(prof.vertex_alpha)
@@ -287,20 +400,23 @@ JOIN_FILES = ("optimum.ply", "large_torsion.ply", "energy_curve.csv", "result.js
               "profile_large_torsion.png")
 
 
-def join_inputs(vessel, *, case=None, fixed=None, moving=None, target=None, other=None, other_end=None):
+def join_inputs(vessel, *, case=None, fixed=None, moving=None, target=None, other=None, other_end=None,
+                units=None, scale=None):
     """Read what a join needs: the vessel, held and moving ids, target, and the other vessel.
 
     Either ``case`` (a ``case.json``, which also names the other vessel's file)
     or all of ``fixed``, ``moving`` and ``target`` must be given; ``other`` and
-    ``other_end`` override the case's.
+    ``other_end`` override the case's. Both meshes and the target's origin are
+    in the units ``units``/``scale`` and are converted into millimetres
+    (:func:`read_mesh_in`).
 
     Returns
     -------
     dict
-        ``V, F, fixed, moving, target, other`` (``(V2, F2, other_end)`` or None) and ``inputs``
-        (every file read).
+        ``V, F, fixed, moving, target, other`` (``(V2, F2, other_end)`` or None), ``inputs``
+        (every file read) and ``units`` (:func:`read_mesh_in`).
     """
-    V, F = read_mesh(vessel)
+    V, F, uinfo = read_mesh_in(vessel, units, scale)
     inputs = [vessel, case, other]
     case_other_end = None
     if case is not None:
@@ -314,9 +430,12 @@ def join_inputs(vessel, *, case=None, fixed=None, moving=None, target=None, othe
     other_end = case_other_end if other_end is None else other_end
     o = None
     if other is not None:
-        Vo, Fo = read_mesh(other)
+        Vo, Fo, _ = read_mesh_in(other, units, scale)
         o = (Vo, Fo, other_end)
-    return {"V": V, "F": F, "fixed": fixed, "moving": moving, "target": target, "other": o, "inputs": inputs}
+    if uinfo["to_mm"] != 1.0:
+        target = replace(target, origin=np.asarray(target.origin) * uinfo["to_mm"])
+    return {"V": V, "F": F, "fixed": fixed, "moving": moving, "target": target, "other": o, "inputs": inputs,
+            "units": uinfo}
 
 
 def _join_search(V, F, fixed, moving, target, method, ends, n_curve, curve_range_deg, progress, name):
@@ -536,24 +655,89 @@ def run_demo(outdir, *, resolution=1.0, n_curve=None, cases=(1, 2), pre_rotation
 # ----------------------------------------------------------------------------- clean, generate
 
 
-def run_clean(mesh, out, *, fmt="ply"):
+def run_clean(mesh, out, *, fmt="ply", smooth=0, units=None, scale=None):
     """Repair a mesh file (:func:`vesselgp.clean_mesh`); writes ``<name>_clean.<fmt>`` and ``clean_report.json``.
+
+    Parameters
+    ----------
+    mesh : str or os.PathLike
+    out : OutputFolder
+    fmt : {"ply", "stl", "obj", "off", "vtp"}
+    smooth : int
+        Taubin smoothing iterations after the repairs (0: none).
+    units, scale : optional
+        Length unit of the file, or millimetres per mesh unit (:func:`read_mesh_in`);
+        the cleaned mesh is written in millimetres.
 
     Returns
     -------
     (CleanReport, dict)
     """
-    V, F = read_mesh(mesh)
-    V2, F2, rep = clean_mesh(V, F)
+    V, F, uinfo = read_mesh_in(mesh, units, scale)
+    V2, F2, rep = clean_mesh(V, F, smooth=smooth)
     write_mesh(out(f"{Path(mesh).stem}_clean.{fmt}"), V2, F2)
     d = {k: v for k, v in asdict(rep).items() if k != "vertex_map"}
     d["summary"] = rep.summary()
     d["input"] = str(mesh)
+    d.update(uinfo)
     sc = mesh_scale(V2, F2)
     d["scale"] = {"median_edge": sc.median_edge, "bbox_diagonal": sc.bbox_diagonal,
                   "units_guess": sc.units_guess, "warning": sc.warning}
     write_json(out("clean_report.json"), d)
     return rep, d
+
+
+# ----------------------------------------------------------------------------- ends
+
+
+def run_ends(mesh, out, *, units=None, scale=None):
+    """The ends of a vessel mesh file (:func:`vesselgp.vessel_ends`); writes ``ends.json``.
+
+    Parameters
+    ----------
+    mesh : str or os.PathLike
+    out : OutputFolder
+    units, scale : optional
+        Length unit of the file, or millimetres per mesh unit (:func:`read_mesh_in`).
+
+    Returns
+    -------
+    dict
+        The contents of ``ends.json``: ``command``, ``input``, ``units``,
+        ``input_units``, ``to_mm``, ``bbox_diagonal``, ``n_ends`` and ``ends``,
+        one ``{index, kind, radius, center, direction}`` per end in the order
+        of :func:`vesselgp.vessel_ends` (the indices ``--ends I J`` takes).
+    """
+    V, F, uinfo = read_mesh_in(mesh, units, scale)
+    ends = vessel_ends(V, F)
+    d = {"command": "ends", "input": str(mesh), **uinfo,
+         "bbox_diagonal": float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), "n_ends": len(ends),
+         "ends": [{"index": i, "kind": e.kind, "radius": float(e.radius), "center": np.asarray(e.center, float),
+                   "direction": np.asarray(e.direction, float)} for i, e in enumerate(ends)]}
+    write_json(out("ends.json"), d)
+    return to_json(d)
+
+
+def ends_table(d):
+    """Plain-text table (index, kind, radius, centre, direction) of :func:`run_ends`' result.
+
+    Centres are printed to a ten-thousandth of the bounding-box diagonal
+    (:func:`vesselgp.inside.format_point`), directions to four decimals.
+
+    Examples
+    --------
+    >>> print(ends_table({"units": "mm", "bbox_diagonal": 50.0, "ends": [{"index": 0, "kind": "open",
+    ...       "radius": 7.712, "center": [1.23456, 2, 3], "direction": [0, 0, -1]}]}))
+    end  kind     radius (mm)  centre (mm)                   direction
+      0  open           7.712  (1.235, 2, 3)                 (0, 0, -1)
+    """
+    u = d["units"]
+    rows = ["{:<4} {:<8} {:>11}  {:<29} {}".format("end", "kind", f"radius ({u})", f"centre ({u})", "direction")]
+    for e in d["ends"]:
+        rows.append("{:>3}  {:<8} {:>11.4g}  {:<29} {}".format(
+            e["index"], e["kind"], e["radius"], format_point(e["center"], d["bbox_diagonal"]),
+            format_point(e["direction"], 1.0)))
+    return "\n".join(rows)
 
 
 def run_paper_cases(out, *, resolution=1.0, seed=0, noise=0.0, pre_rotation=0.0):

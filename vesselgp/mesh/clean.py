@@ -10,7 +10,10 @@
    when the faces already are coherent, and the faces it flipped;
 4. :func:`_keep_largest_component`: edge-connected face components, all but
    the largest by area dropped;
-5. a closed surface is turned outward (positive signed volume).
+5. a closed surface is turned outward (positive signed volume);
+6. :func:`_taubin_smooth` (``smooth=N``): N iterations of Taubin's
+   volume-preserving lambda/mu smoothing (pymeshlab), which removes voxel
+   staircases of segmentations.
 
 The connectivity of every step comes from one :class:`~.topology.MeshTopology`.
 """
@@ -21,8 +24,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import tolerances as tol
 from .._validate import as_mesh
-from ..errors import InvalidMeshError
+from ..errors import InvalidMeshError, OptionError
 from ._geometry import face_vectors, signed_volume
 from .scale import mesh_scale
 from .topology import MeshTopology
@@ -61,6 +65,9 @@ class CleanReport:
     faces_flipped : int
         Faces whose orientation was reversed to make it coherent (and outward
         for a closed surface).
+    smoothing_iterations : int
+        Iterations of Taubin smoothing applied after the repairs (0: none;
+        the vertices are then a subset of the input positions).
     vertex_map : (vertices_after,) int64
         Input index of each output vertex.
     """
@@ -79,6 +86,7 @@ class CleanReport:
     components_found: int = 1
     components_removed: int = 0
     faces_flipped: int = 0
+    smoothing_iterations: int = 0
     vertex_map: np.ndarray = field(default=None, repr=False, compare=False)
 
     _ITEMS = (
@@ -90,6 +98,7 @@ class CleanReport:
         ("non_manifold_vertices_split", "split {} non-manifold vertices"),
         ("components_removed", "dropped {} small components"),
         ("faces_flipped", "flipped {} faces"),
+        ("smoothing_iterations", "{} iterations of Taubin smoothing"),
     )
 
     @property
@@ -119,15 +128,21 @@ class CleanReport:
         )
 
 
-def clean_mesh(V, F, keep_largest=True):
-    """Repair a triangle mesh and keep its largest connected component.
+def clean_mesh(V, F, keep_largest=True, *, smooth=0):
+    """Repair a triangle mesh and keep its largest connected component; optionally smooth it.
 
     Steps (pymeshlab filters unless noted): remove unreferenced vertices,
     merge exactly coincident vertices, remove duplicate and zero-area faces,
     repair non-manifold edges (by removing faces) and vertices (by splitting),
     orient faces coherently, keep the largest edge-connected component by area
     (numpy, :attr:`MeshTopology.face_components`), and orient a closed surface
-    outward (positive signed volume).
+    outward (positive signed volume). With ``smooth=N``, N iterations of
+    Taubin's lambda/mu smoothing follow (pymeshlab
+    ``apply_coord_taubin_smoothing`` with ``tolerances.TAUBIN_LAMBDA`` and
+    ``TAUBIN_MU``): it removes the voxel staircase of a segmentation without
+    the shrinking of plain Laplacian smoothing (a staircase tube 6 voxels in
+    radius, 20 iterations: the volume changes by 0.2 %); vertices move, the
+    faces stay.
 
     Parameters
     ----------
@@ -137,11 +152,13 @@ def clean_mesh(V, F, keep_largest=True):
         Triangles.
     keep_largest : bool
         Drop every component but the largest by area.
+    smooth : int
+        Taubin smoothing iterations after the repairs (0: none, the default).
 
     Returns
     -------
     V2 : (n2, 3) float64
-        Cleaned vertices (a subset of the input positions).
+        Cleaned vertices (a subset of the input positions unless ``smooth``).
     F2 : (m2, 3) int64
         Cleaned triangles.
     report : CleanReport
@@ -152,6 +169,8 @@ def clean_mesh(V, F, keep_largest=True):
     ------
     InvalidMeshError
         Malformed input, or nothing left after cleaning.
+    OptionError
+        ``smooth`` is not a non-negative integer.
 
     Examples
     --------
@@ -161,7 +180,10 @@ def clean_mesh(V, F, keep_largest=True):
     >>> V2, F2, rep = clean_mesh(V, [[0, 1, 2], [4, 2, 3]])
     >>> len(V2), rep.duplicate_vertices_merged, rep.changed
     (4, 1, True)
+    >>> rep.smoothing_iterations, clean_mesh(V, [[0, 1, 2]], smooth=2)[2].smoothing_iterations
+    (0, 2)
     """
+    smooth = _smoothing_iterations(smooth)
     V, F = as_mesh(V, F)
     ml = _MeshLab(V, F)
     counts = _remove_defects(ml)
@@ -172,10 +194,12 @@ def clean_mesh(V, F, keep_largest=True):
     if closed and signed_volume(V2, F2) < 0:  # closed: make it outward
         F2 = F2[:, [0, 2, 1]]
         flips = ~flips
+    if smooth:
+        V2 = _taubin_smooth(V2, F2, smooth)
     report = CleanReport(
         vertices_before=len(V), faces_before=len(F), vertices_after=len(V2), faces_after=len(F2),
         components_found=ncomp, components_removed=ncomp - 1 if keep_largest else 0,
-        faces_flipped=int(np.count_nonzero(flips)), vertex_map=vmap,
+        faces_flipped=int(np.count_nonzero(flips)), smoothing_iterations=smooth, vertex_map=vmap,
         **{k: int(v) for k, v in counts.items()},
     )
     if report.changed:
@@ -386,3 +410,31 @@ def _keep_largest_component(V, F, vmap, flips, topo, keep_largest):
     used[F.reshape(-1)] = True
     newid = np.cumsum(used) - 1
     return V[used], newid[F], vmap[used], flips, ncomp, closed
+
+
+def _smoothing_iterations(smooth):
+    """``smooth`` as an int, or :class:`OptionError` when it is not a non-negative whole number."""
+    if isinstance(smooth, bool) or not isinstance(smooth, (int, np.integer)) or smooth < 0:
+        raise OptionError(f"smooth must be a non-negative integer number of Taubin iterations (0: off), "
+                          f"got {smooth!r}; pass e.g. smooth=10")
+    return int(smooth)
+
+
+def _taubin_smooth(V, F, iterations):
+    """``iterations`` lambda/mu steps of Taubin smoothing (pymeshlab); the vertex order is kept.
+
+    Returns
+    -------
+    (n, 3) float64
+        The smoothed vertices of the faces ``F``.
+    """
+    import pymeshlab  # slow to import: only when smoothing
+
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=V, face_matrix=F.astype(np.int32)))
+    ms.apply_coord_taubin_smoothing(lambda_=tol.TAUBIN_LAMBDA, mu=tol.TAUBIN_MU, stepsmoothnum=int(iterations))
+    m = ms.current_mesh()
+    if m.vertex_number() != len(V) or not np.array_equal(m.face_matrix(), F):
+        raise RuntimeError("pymeshlab's Taubin smoothing changed the faces; clean_mesh keeps them")
+    log.info("Taubin smoothing: %d iterations (lambda %g, mu %g)", iterations, tol.TAUBIN_LAMBDA, tol.TAUBIN_MU)
+    return np.asarray(m.vertex_matrix(), dtype=np.float64)

@@ -1,15 +1,22 @@
-"""Size and length unit of a mesh: :func:`mesh_scale`, :class:`MeshScale`."""
+"""Size and length unit of a mesh: :func:`mesh_scale`, :class:`MeshScale`, :func:`units_factor`."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from .. import tolerances as tol
 from .._validate import as_mesh
+from ..errors import OptionError
 from ._geometry import median_edge as _median_edge
 
-__all__ = ["mesh_scale", "MeshScale"]
+__all__ = ["mesh_scale", "MeshScale", "units_factor", "UNITS_TO_MM", "UNIT_NAMES"]
+
+#: Length units a mesh can be given in, and how many millimetres one of them is.
+UNITS_TO_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "um": 1e-3}
+#: Their names, as :func:`mesh_scale`'s warnings spell them.
+UNIT_NAMES = {"mm": "millimetres", "cm": "centimetres", "m": "metres", "um": "micrometres"}
 
 
 @dataclass(frozen=True)
@@ -90,3 +97,48 @@ def mesh_scale(V, F, ends=None):
     else:
         units = "mm"
     return MeshScale(med, diag, rr, units, warning)
+
+
+def units_factor(units=None, scale=None):
+    """The factor that brings a mesh's coordinates into millimetres, and a label of its units.
+
+    Parameters
+    ----------
+    units : {"mm", "cm", "m", "um"}, optional
+        The mesh's length unit.
+    scale : float, optional
+        Millimetres per mesh unit (instead of ``units``).
+
+    Returns
+    -------
+    factor : float
+        Multiply the vertices by it to get millimetres (1 when neither is given).
+    label : str or None
+        ``units``, or ``"<scale> mm"`` for a ``scale``, or None when neither is
+        given (the mesh is taken to be in millimetres).
+
+    Raises
+    ------
+    OptionError
+        An unknown unit, a scale that is not a finite positive number, or both given.
+
+    Examples
+    --------
+    >>> units_factor("m"), units_factor(scale=25.4), units_factor()
+    ((1000.0, 'm'), (25.4, '25.4 mm'), (1.0, None))
+    """
+    if units is not None and scale is not None:
+        raise OptionError("give the mesh's units or a scale factor, not both")
+    if units is not None:
+        if units not in UNITS_TO_MM:
+            raise OptionError(f"unknown length unit {units!r}; use one of {', '.join(UNITS_TO_MM)}")
+        return UNITS_TO_MM[units], str(units)
+    if scale is not None:
+        try:
+            f = float(scale)
+        except (TypeError, ValueError):
+            f = math.nan
+        if isinstance(scale, bool) or not (math.isfinite(f) and f > 0):
+            raise OptionError(f"scale must be a finite positive number of millimetres per mesh unit, got {scale!r}")
+        return f, f"{f:g} mm"
+    return 1.0, None
