@@ -340,7 +340,8 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
         if render:
             render_mesh(out(f"mesh_{shade}.png"), V, F, val, vmin=lo, vmax=hi, cmap=cmap, cbar_label=label,
                         title=f"{Path(mesh).name}: generalized cylinder, length {gc.length:.4g}, "
-                              f"mean radius {gc.mean_radius:.3g}")
+                              f"mean radius {gc.mean_radius:.3g}",
+                        period=360.0 if shade == "theta" else None, lines=[gc.dense_points])
     return gc, d
 
 
