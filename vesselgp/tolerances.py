@@ -271,10 +271,6 @@ DEMO_LARGE_TORSION_DEG = 90.0
 #: An end's outward direction points away from the centroid of the vertices
 #: within this many end radii of its centre (the nearby vessel body).
 ENDS_BODY_RADII = 2.0
-#: A flat cap needs at least this many faces (rejects single flat triangles).
-CAP_MIN_FACES = 4
-#: A flat cap's rim radius must be at least this many median edge lengths.
-CAP_MIN_RADIUS_EDGES = 2.0
 #: A geodesic ring (band one median edge wide) needs this many vertices to be
 #: used when locating a rounded end.
 ENDS_MIN_RING = 3
@@ -304,3 +300,86 @@ UNITS_UM_MIN_DIAG = 5000.0
 #: highest frequencies damped.
 TAUBIN_LAMBDA = 0.6
 TAUBIN_MU = -0.61
+
+# --- vessel ends on trees and voxel surfaces (issue #13) ---
+#: Error messages list at most this many ends, then "... and N more".
+ENDS_LIST_MAX = 10
+#: Staircase check (vessel_ends, first): a face faces a coordinate axis when its normal is
+#: within this many degrees of one (voxel faces and binary marching-cubes terraces are exact).
+STAIRCASE_AXIS_DEG = 1.0
+#: A raw voxel staircase has at least this fraction of its area facing an axis. Measured:
+#: voxel faces 1.00; binary marching cubes 0.32-0.45 (any orientation, anisotropic spacing too);
+#: smooth vessel meshes (synthetic trees, the three real meshes, synthetic tubes open or capped,
+#: structured or remeshed) at most 0.16; a capped can as short as it is wide along z 0.33 ...
+STAIRCASE_AREA_FRACTION = 0.25
+#: ... spread over at least this many distinct axis-aligned planes (terraces). Measured: voxel
+#: and binary marching-cubes vessels 58-755; smooth meshes at most 14; a capped can 2.
+STAIRCASE_MIN_TERRACES = 20
+#: Axis-aligned faces whose planes are closer than this many median edges are one terrace ...
+STAIRCASE_PLANE_EDGES = 0.5
+#: ... and a terrace counts when it holds at least this many squared median edges of area.
+STAIRCASE_TERRACE_AREA = 1.0
+#: Caps: across each rim edge the wall stands within this angle (radians) of perpendicular
+#: to the cap.
+CAP_RIM_TILT = 0.8  # about 46 degrees
+#: Caps: at least this fraction of a cap's rim (by length) is sharp (SHARP_EDGE_ANGLE); the
+#: rest may be blunter, down to CAP_RIM_TILT from perpendicular (a noisy wall).
+CAP_RIM_SHARP_FRACTION = 0.75
+#: Caps: the wall face's third vertex lies off the cap's plane by at least this fraction of
+#: its distance from the rim edge (on the same side all round).
+CAP_RIM_MIN_SLOPE = 0.05
+#: Caps: the surface within this many rim radii (geodesic; the rim's largest radius, or its
+#: longest wall edge if longer) of the rim is examined to see that the cap closes a tube ...
+CAP_TUBE_REACH = 2.0
+#: ... it must reach this many (mean) rim radii behind the cap's plane ...
+CAP_TUBE_MIN_DEPTH = 0.5
+#: ... none of it may lie more than this many rim radii in front of the plane ...
+CAP_FRONT_TOLERANCE = 0.1
+#: ... and it stays within this many times the rim's largest radius of the cap's axis ...
+CAP_TUBE_SPREAD = 1.25
+#: ... plus this much per unit depth behind the cap (a cone widening at up to 27 degrees).
+CAP_TUBE_FLARE = 0.5
+#: Rounded tips: maxima of the geodesic distance from the other ends whose persistence is
+#: below this many median edges are noise on a ridge, not tips.
+ENDS_TIP_MIN_PERSISTENCE = 3.0
+#: Rounded tips: the geodesic rings about a candidate are first gathered this many median
+#: edges far ...
+ENDS_TIP_START_EDGES = 16.0
+#: ... then this many times as far, and so on until the test can decide ...
+ENDS_TIP_GROWTH = 3.0
+#: ... but at most this many times the candidate's persistence away.
+ENDS_TIP_REACH = 2.0
+#: Rounded tips: the equator is where this many consecutive rings are narrower than a
+#: hemisphere's (radius below 2 d / pi at geodesic distance d).
+ENDS_TIP_CROSS_RINGS = 3
+#: Rounded tips: the tube is examined this many radii past the dome's equator.
+ENDS_TIP_TUBE_RADII = 1.0
+#: Rounded tips: the tube rings' centroids move down the axis at unit speed within this ...
+ENDS_TIP_SPEED_TOL = 0.35
+#: ... on a line within this many radii (rms) ...
+ENDS_TIP_LINE_TOL = 0.25
+#: ... ring radii (tube and dome, the tip's distance from the centre) within this fraction of R ...
+ENDS_TIP_RADIUS_TOL = 0.25
+#: ... and rings round: standard deviation of the distance to their centroid below this fraction.
+ENDS_TIP_ROUND_TOL = 0.25
+#: Rounded tips: the dome (within ENDS_TIP_DOME_TO of the equator's distance) fits a sphere
+#: of radius R within ENDS_TIP_RADIUS_TOL, with an rms residual below this fraction of R ...
+ENDS_TIP_SPHERE_RMS = 0.1
+#: ... the tube's face normals are all across one axis (smallest over middle eigenvalue of
+#: their area-weighted scatter below this) ...
+ENDS_TIP_AXIS_SPREAD = 0.3
+#: ... and the tip is within this many degrees of that axis seen from the sphere's centre.
+ENDS_TIP_AXIS_DEG = 35.0
+#: Rounded tips: every ring from this band on (bands are one median edge wide, counted from the
+#: candidate) up to the equator, and the tube's rings past it, is one planar circle ...
+ENDS_TIP_FIRST_RING = 2
+#: ... the two larger eigenvalues of its points' scatter within this ratio ...
+ENDS_TIP_RING_ASPECT = 0.3
+#: ... and the smallest below this fraction of the largest (plus h^2 / 12, a band's thickness).
+ENDS_TIP_RING_FLATNESS = 0.05
+#: Rounded tips: the dome's rings checked against R sin(d / R) span these fractions of the
+#: equator's distance.
+ENDS_TIP_DOME_FROM = 0.25
+ENDS_TIP_DOME_TO = 0.85
+#: Rounded tips: a maximum closer than this many radii to a tip's centre is on that tip.
+ENDS_TIP_SEPARATION = 1.5

@@ -1,26 +1,31 @@
 """Where a vessel ends: :func:`vessel_ends`, :class:`VesselEnd`, :func:`select_ends`.
 
-An end is an open boundary loop, a flat cap of a closed surface, or a rounded
-(closed, uncapped) extremity; :func:`select_ends` picks the two ends of the
-vessel's path among them. One :class:`~.topology.MeshTopology` of the mesh
-serves the surface check, the boundary loops, the cap patches and the
-geodesic sweep of rounded ends.
+An end is an open boundary loop, a flat cap of a closed part of the surface,
+or a rounded (hemispherical) tip; a vessel tree has one per branch end, and
+:func:`select_ends` picks the two ends of the vessel's path among them. One
+:class:`~.topology.MeshTopology` of the mesh serves the surface check, the
+boundary loops, the cap patches and the geodesic search for tips; the caps
+live in :mod:`._ends_caps`, the tips in :mod:`._ends_tips` and the voxel
+staircase check in :mod:`._ends_staircase`.
 """
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cmp_to_key
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components, dijkstra
 
 from .. import tolerances as tol
 from .._arrays import unique_rows
 from .._validate import as_mesh
 from ..errors import EndsError, InvalidMeshError, NotTubularError
-from ._geometry import face_vectors, loop_centroid, median_edge, vector_area
+from ._ends_caps import find_caps
+from ._ends_format import bbox_diagonal, end_listing, format_point
+from ._ends_staircase import check_staircase
+from ._ends_tips import extreme_tips, find_tips
+from ._geometry import loop_centroid, vector_area
 from .topology import MeshTopology
 
 __all__ = ["vessel_ends", "VesselEnd", "select_ends"]
@@ -40,22 +45,27 @@ class VesselEnd:
     ----------
     kind : str
         "open" (a boundary loop), "cap" (a flat cap of a closed surface) or
-        "rounded" (a closed, uncapped extremity).
+        "rounded" (a closed, uncapped, dome-shaped tip).
     loop : (k,) int64
         Ordered rim vertices: the boundary loop, the cap's rim, or for a
-        rounded end the ring of vertices where the end meets the tube. Ordered
+        rounded end the ring of vertices where the dome meets the tube. Ordered
         counter-clockwise seen from outside (right-handed about ``direction``).
     vertices : (j,) int64
         Vertices of the end region: the loop (open), every cap vertex (cap), or
         the vertices within half a radius (geodesic) of the tip (rounded).
     center : (3,) float64
-        Centre of the end's cross-section.
+        Centre of the end's cross-section (for a rounded end, the centre of
+        its dome: where the dome meets the tube's axis).
     direction : (3,) float64
         Unit axis direction pointing out of the vessel.
     radius : float
-        Mean distance of the loop vertices to ``center``.
+        Mean distance of the loop vertices to ``center`` (open, cap); the
+        radius of the tube meeting the dome (rounded).
     faces : (c,) int64 or None
         Cap faces (caps only).
+    scale : float or None
+        Size of the mesh (its bounding-box diagonal), which sets the digits
+        :meth:`describe` prints; None to judge from the end alone.
     """
 
     kind: str
@@ -65,26 +75,40 @@ class VesselEnd:
     direction: np.ndarray
     radius: float
     faces: np.ndarray | None = field(default=None, repr=False)
+    scale: float | None = field(default=None, repr=False, compare=False)
 
     def describe(self):
-        """Short text such as ``'open r=7.7 at (221.0, 177.8, 21.0)'``."""
-        c = ", ".join(f"{x:.1f}" for x in self.center)
-        return f"{self.kind} r={self.radius:.3g} at ({c})"
+        """Short text such as ``'open r=7.69 at (220.98, 177.78, 20.99)'``.
+
+        The centre resolves ``tolerances.PRINT_RESOLUTION`` of the mesh's
+        size (:attr:`scale`; without it, of the end's distance from the origin
+        plus ten radii).
+        """
+        scale = self.scale
+        if scale is None or not scale > 0:
+            scale = float(np.linalg.norm(self.center)) + 10.0 * float(self.radius)
+        return f"{self.kind} r={self.radius:.3g} at {format_point(self.center, scale)}"
 
 
 def vessel_ends(V, F, *, topology=None):
-    """Find the ends of a vessel mesh.
+    """Find every end of a vessel or vessel tree, and nothing else.
 
-    Open ends are boundary loops (:attr:`MeshTopology.boundary_loops`). If fewer
-    than two are found, flat caps are looked for: patches of faces not
-    separated by sharp edges (normals differing by more than
-    ``tolerances.SHARP_EDGE_ANGLE``) that are planar within
-    ``tolerances.CAP_FLATNESS``, disk-shaped and at least
-    ``tolerances.CAP_MIN_RADIUS_EDGES`` edges in radius. If still fewer than
-    two, rounded ends are found as the extremes of a double sweep of geodesic
-    (edge-graph Dijkstra) distance; the end's cross-section is the ring of
-    vertices where a hemisphere would meet its tube (ring radius = 2/pi times
-    the geodesic distance to the tip).
+    Three kinds of ends are found, all of them on every mesh:
+
+    * open ends: the boundary loops (:attr:`MeshTopology.boundary_loops`);
+    * flat caps of any size, down to an outlet one or two edges across:
+      flat disks of faces bounded by sharp edges (dihedral angle above
+      ``tolerances.SHARP_EDGE_ANGLE``) that close the tube, i.e. the wall
+      meets the rim all round from behind and the rim is the whole
+      cross-section (see :mod:`vesselgp.mesh._ends_caps`);
+    * rounded tips: maxima of the geodesic distance from the other ends
+      (edge-graph Dijkstra; on a closed surface without caps, from an
+      extremity found by a double sweep) around which the geodesic rings close
+      in like a hemisphere's on a tube (see :mod:`vesselgp.mesh._ends_tips`);
+      a junction's saddle or the ridge in the middle of a tube is not one.
+
+    A raw voxel surface (voxel faces or unsmoothed marching cubes of a mask),
+    whose terraces would look like caps, is refused first.
 
     Parameters
     ----------
@@ -105,6 +129,11 @@ def vessel_ends(V, F, *, topology=None):
 
     Raises
     ------
+    EndsError
+        The mesh is a raw voxel staircase: at least
+        ``tolerances.STAIRCASE_AREA_FRACTION`` of its area faces a coordinate
+        axis, in at least ``tolerances.STAIRCASE_MIN_TERRACES`` terraces;
+        smooth it first (``vesselgp.clean_mesh(V, F, smooth=N)``).
     NotTubularError
         No two ends (a sphere, a torus, a closed blob).
     InvalidMeshError
@@ -130,16 +159,83 @@ def vessel_ends(V, F, *, topology=None):
     """
     V, F = as_mesh(V, F)
     topo = _topology_of(F, len(V), topology)
+    N, A = _face_normals(V, F)
+    w = topo.edge_lengths(V)
+    h = float(np.median(w)) if len(w) else 0.0
+    check_staircase(V, F, N, A, h)
     _check_surface(V, F, topo)
-    ends = _open_ends(V, topo)
-    if len(ends) < 2:
-        for fids, loop, center, n in _find_caps(V, F, topo):
-            ends.append(_make_end(V, "cap", loop, np.unique(F[fids]), center, n, faces=fids))
-    if len(ends) < 2:
-        ends = _rounded_ends(V, F, topo, ends)
+    scale = bbox_diagonal(V if topo.referenced.all() else V[topo.referenced])
+    graph = _Lazy(lambda: _edge_graph(topo, w))
+    body = _Nearby(V)
+    ends = _open_ends(V, topo, scale, body)
+    for fids, loop, center, n in find_caps(V, F, topo, N, A, graph):
+        ends.append(_make_end(body, "cap", loop, np.unique(F[fids]), center, n, scale, faces=fids))
+    ends += _rounded_ends(V, topo, (N, A), ends, graph, h, scale, body)
     ends.sort(key=cmp_to_key(_compare_ends))
-    log.info("found %d vessel ends: %s", len(ends), "; ".join(e.describe() for e in ends))
+    log.info("found %d vessel ends: %s", len(ends), end_listing(ends))
     return tuple(ends)
+
+
+class _Lazy:
+    """A value computed by ``fn()`` on the first call, then kept (callable)."""
+
+    def __init__(self, fn):
+        self._fn, self._value, self._done = fn, None, False
+
+    def __call__(self):
+        if not self._done:
+            self._value, self._done = self._fn(), True
+        return self._value
+
+
+def _face_normals(V, F):
+    """Unit face normals (m, 3) float64 (zero rows for zero-area faces) and twice the areas (m,)."""
+    a = V[F[:, 0]]
+    u, v = V[F[:, 1]] - a, V[F[:, 2]] - a
+    N = np.empty_like(u)
+    N[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
+    N[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
+    N[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    A = np.sqrt(np.einsum("ij,ij->i", N, N))
+    np.divide(N, A[:, None], out=N, where=A[:, None] > 0)
+    N[A == 0] = 0.0
+    return N, A
+
+
+def _edge_graph(topo, w):
+    """(n, n) csr_array: the symmetric edge-length graph (as :meth:`MeshTopology.edge_graph`)."""
+    E, n = topo.edges, topo.n_vertices
+    G = sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
+    return (G + G.T).tocsr()
+
+
+class _Nearby:
+    """Vertices within a distance of a point (callable).
+
+    The first few queries scan every vertex; later ones (a tree's many ends)
+    use one sort of the x coordinates and scan only the slab about the point.
+    """
+
+    _SCANS = 3
+
+    def __init__(self, V):
+        self.V = V
+        self._calls = 0
+        self._order = self._x = None
+
+    def __call__(self, c, r):
+        """Ids (k,) int64 of the vertices closer than ``r`` to ``c`` (3,), ascending."""
+        self._calls += 1
+        if self._calls <= self._SCANS:
+            D = self.V - c
+            return np.flatnonzero(np.einsum("ij,ij->i", D, D) < r * r)
+        if self._order is None:
+            self._order = np.argsort(self.V[:, 0], kind="stable")
+            self._x = self.V[self._order, 0]
+        lo, hi = np.searchsorted(self._x, [c[0] - r, c[0] + r])
+        idx = self._order[lo:hi]
+        D = self.V[idx] - c
+        return np.sort(idx[np.einsum("ij,ij->i", D, D) < r * r])
 
 
 def _topology_of(F, n, topology):
@@ -199,27 +295,36 @@ def _check_surface(V, F, topo):
             )
 
 
-def _make_end(V, kind, loop, region, center, normal, faces=None):
-    """Orient ``normal`` away from the nearby vessel body and build the end."""
+def _make_end(nearby, kind, loop, region, center, normal, scale, faces=None):
+    """Orient ``normal`` away from the nearby vessel body and build the end.
+
+    The body is the centroid of the vertices within ``tolerances.ENDS_BODY_RADII``
+    end radii of ``center`` outside ``region`` (of every other vertex if none is
+    that close); ``nearby`` is the :class:`_Nearby` of the vertices.
+    """
+    V = nearby.V
     loop = np.array(loop, dtype=np.int64)  # a copy: never a view of a cached topology table
     radius = float(np.linalg.norm(V[loop] - center, axis=1).mean())
     n = normal / np.linalg.norm(normal)
-    mask = np.ones(len(V), dtype=bool)
-    mask[region] = False
-    d = np.linalg.norm(V - center, axis=1)
-    near = mask & (d < tol.ENDS_BODY_RADII * radius)
-    if near.any() or mask.any():  # (a bare loop has no body to point away from)
-        body = V[near].mean(0) if near.any() else V[mask].mean(0)
+    region = np.unique(np.asarray(region, dtype=np.int64))
+    near = nearby(center, tol.ENDS_BODY_RADII * radius)
+    near = near[~np.isin(near, region, assume_unique=True)]
+    if len(near) or len(region) < len(V):  # (a bare loop has no body to point away from)
+        if len(near):
+            body = V[near].mean(0)
+        else:
+            mask = np.ones(len(V), dtype=bool)
+            mask[region] = False
+            body = V[mask].mean(0)
         if n @ (center - body) < 0:
             n = -n
     if len(loop) >= 3 and vector_area(V[loop]) @ n < 0:
         loop = loop[::-1].copy()
-    return VesselEnd(kind, loop, np.unique(np.asarray(region, dtype=np.int64)),
-                     np.asarray(center, dtype=np.float64), n, radius,
-                     None if faces is None else np.asarray(faces, dtype=np.int64))
+    return VesselEnd(kind, loop, region, np.asarray(center, dtype=np.float64), n, radius,
+                     None if faces is None else np.asarray(faces, dtype=np.int64), scale)
 
 
-def _open_ends(V, topo):
+def _open_ends(V, topo, scale, nearby):
     """One open end per boundary loop of three or more vertices."""
     ends = []
     for loop in topo.boundary_loops:
@@ -229,112 +334,12 @@ def _open_ends(V, topo):
         a = vector_area(P)
         per = float(np.linalg.norm(np.roll(P, -1, axis=0) - P, axis=1).sum())
         if not np.linalg.norm(a) > tol.DEGENERATE_AREA * per**2:
-            c = ", ".join(f"{x:.3g}" for x in P.mean(0))
             raise InvalidMeshError(
-                f"boundary loop of {len(loop)} vertices at ({c}) encloses no area (its vertices "
+                f"boundary loop of {len(loop)} vertices at {format_point(P.mean(0), scale)} encloses no area (its vertices "
                 "coincide or are collinear); run vesselgp.clean_mesh or repair the mesh there"
             )
-        ends.append(_make_end(V, "open", loop, loop, loop_centroid(P), a))
+        ends.append(_make_end(nearby, "open", loop, loop, loop_centroid(P), a, scale))
     return ends
-
-
-def _smooth_patches(V, F, topo):
-    """Faces grouped into patches not separated by sharp edges.
-
-    Returns
-    -------
-    patches : list of (k,) int64
-        Face ids of each patch of at least ``tolerances.CAP_MIN_FACES`` faces.
-    N : (m, 3) float64
-        Unit face normals (zero for zero-area faces).
-    A : (m,) float64
-        Twice the face areas.
-    """
-    N = face_vectors(V, F)
-    A = np.linalg.norm(N, axis=1)
-    N = np.divide(N, A[:, None], out=np.zeros_like(N), where=A[:, None] > 0)
-    f, g = topo.edge_faces[topo.edge_face_count == 2].T
-    cosang = np.abs(np.einsum("ij,ij->i", N[f], N[g]))  # orientation-free
-    smooth = cosang > np.cos(tol.SHARP_EDGE_ANGLE)
-    m = len(F)
-    G = sp.coo_array((np.ones(int(smooth.sum()), dtype=np.int8), (f[smooth], g[smooth])), shape=(m, m))
-    ncomp, lab = connected_components(G.tocsr(), directed=False)
-    nface = np.bincount(lab, minlength=ncomp)
-    order = np.argsort(lab, kind="stable")
-    groups = np.split(order, np.cumsum(nface)[:-1])
-    return [groups[c] for c in np.flatnonzero(nface >= tol.CAP_MIN_FACES)], N, A
-
-
-def _find_caps(V, F, topo):
-    """Flat patches bounded by sharp edges: list of (faces, rim loop, centre, normal)."""
-    patches, N, A = _smooth_patches(V, F, topo)
-    med = median_edge(V, F)
-    caps = []
-    for fids in patches:  # loop over a few patches
-        if topo.boundary_faces[fids].any():  # touches a mesh boundary: not a cap of a closed end
-            continue
-        w = A[fids]
-        M = (N[fids] * w[:, None]).T @ N[fids]
-        n = np.linalg.eigh(M)[1][:, -1]
-        if np.arccos(np.clip(np.abs(N[fids] @ n), 0, 1)).max() > tol.CAP_FLATNESS:
-            continue
-        patch = MeshTopology(np.ascontiguousarray(F[fids]), len(V))
-        loops = patch.boundary_loops
-        if len(loops) != 1 or patch.euler_characteristic != 1:
-            continue  # not a disk
-        loop = loops[0]
-        center = (w[:, None] * V[F[fids]].mean(1)).sum(0) / w.sum()
-        if np.linalg.norm(V[loop] - center, axis=1).mean() < tol.CAP_MIN_RADIUS_EDGES * med:
-            continue
-        caps.append((fids, loop, center, n))
-    return caps
-
-
-def _ring_end(V, G, tip, h):
-    """Rounded end at vertex ``tip``: hemisphere-crossing ring, centre, radius.
-
-    Returns the :class:`VesselEnd`, or None when no tube meets the tip (no
-    ring narrower than a hemisphere's, or the ring lies on the axis line);
-    :func:`_rounded_ends` then raises :class:`NotTubularError`.
-    """
-    g = dijkstra(G, indices=int(tip))
-    finite = np.isfinite(g)
-    b = np.full(len(V), -1)
-    b[finite] = np.floor(g[finite] / h).astype(np.int64)
-    nb = b.max() + 1
-    ok = b >= 0
-    cnt = np.bincount(b[ok], minlength=nb)
-    safe = np.maximum(cnt, 1)[:, None]
-    C = np.stack([np.bincount(b[ok], weights=V[ok, k], minlength=nb) for k in range(3)], 1) / safe
-    rho = np.bincount(b[ok], weights=np.linalg.norm(V[ok] - C[b[ok]], axis=1), minlength=nb) / safe[:, 0]
-    dmean = np.bincount(b[ok], weights=g[ok], minlength=nb) / safe[:, 0]
-    # on a hemisphere of radius R the ring at geodesic distance d has radius
-    # R sin(d/R) > 2d/pi until the equator (d = pi R / 2), on the tube R < 2d/pi
-    valid = np.flatnonzero(cnt >= tol.ENDS_MIN_RING)
-    cross = valid[rho[valid] <= 2.0 * dmean[valid] / np.pi]
-    if len(cross) == 0:
-        return None
-    # R from the first ring past the crossing; the centre interpolated at the
-    # equator's geodesic distance pi R / 2 (independent of how rings fall in bins)
-    R = float(rho[cross[0]])
-    dstar = 0.5 * np.pi * R
-    center = np.array([np.interp(dstar, dmean[valid], C[valid, k]) for k in range(3)])
-    ring = np.flatnonzero(b == valid[np.argmin(np.abs(dmean[valid] - dstar))])
-    direction = V[tip] - center
-    if np.linalg.norm(direction) == 0:
-        return None
-    region = np.flatnonzero(g <= tol.ENDS_ROUNDED_REGION * R)
-    # order the ring by angle about the axis (counter-clockwise seen from outside)
-    t = direction / np.linalg.norm(direction)
-    u = V[ring] - center
-    u -= np.outer(u @ t, t)
-    e1 = u[np.argmax(np.linalg.norm(u, axis=1))]
-    if not np.linalg.norm(e1) > 0:  # the ring lies on the axis line: no tube here
-        return None
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(t, e1)
-    ring = ring[np.argsort(np.arctan2(u @ e2, u @ e1), kind="stable")]
-    return _make_end(V, "rounded", ring, region, center, direction)
 
 
 def _compare_ends(a, b):
@@ -347,9 +352,14 @@ def _compare_ends(a, b):
     return int(ka > kb) - int(ka < kb)
 
 
-def _rounded_ends(V, F, topo, ends):
-    """Add rounded ends (extremes of a double geodesic sweep) to ``ends`` until there are two."""
-    used = np.flatnonzero(topo.referenced)
+def _rounded_ends(V, topo, normals, ends, graph, h, scale, nearby):
+    """Rounded tips (see :func:`._ends_tips.find_tips`) as :class:`VesselEnd` s.
+
+    Raises :class:`NotTubularError` when there are fewer than two ends in all,
+    or two ends of which one is rounded that are closer than
+    ``tolerances.MIN_ASPECT`` mean diameters (a closed blob).
+    """
+    used = topo.referenced
     if not ends:
         if not topo.is_closed:
             raise NotTubularError(
@@ -357,42 +367,57 @@ def _rounded_ends(V, F, topo, ends):
                 "tube); check the mesh with clean_mesh"
             )
         chi = topo.euler_characteristic
-        ncomp = topo.vertex_components[0] - (len(V) - len(used))
+        ncomp = topo.vertex_components[0] - (len(V) - int(np.count_nonzero(used)))
         if chi != 2 * ncomp:
             raise NotTubularError(
                 f"mesh is not tubular: no two ends found; it is a closed surface with Euler "
                 f"characteristic {chi} (genus > 0, e.g. a torus); pass a tube with open or capped ends"
             )
-    G = topo.edge_graph(V)
-    h = median_edge(V, F)
     if not h > 0:
+        if len(ends) >= 2:
+            return []
         raise NotTubularError(
             "mesh is not tubular: no two ends found (most edges have zero length); run vesselgp.clean_mesh"
         )
-    if ends:
-        g = dijkstra(G, indices=ends[0].vertices, min_only=True)
-    else:
-        start = int(np.argmax(np.linalg.norm(V[used] - V[used].mean(0), axis=1)))
-        g = dijkstra(G, indices=int(used[start]))
-        a = int(np.argmax(np.where(np.isfinite(g), g, -1)))
-        g = dijkstra(G, indices=a)
-        end_a = _ring_end(V, G, a, h)
-        if end_a is None:
-            raise NotTubularError("mesh is not tubular: no two ends found (no tube at the extremes)")
-        ends = [end_a]
-    b = int(np.argmax(np.where(np.isfinite(g), g, -1)))
-    end_b = _ring_end(V, G, b, h)
-    if end_b is None:
-        raise NotTubularError("mesh is not tubular: no two ends found (no tube at the extremes)")
-    a_end = ends[0]
-    length = float(np.linalg.norm(a_end.center - end_b.center))
-    diam = a_end.radius + end_b.radius
-    if length < tol.MIN_ASPECT * diam:
-        raise NotTubularError(
-            f"mesh is not tubular: no two ends found; its extremes are {length:.3g} apart, less "
-            f"than {tol.MIN_ASPECT:g} mean diameter ({diam:.3g}) (a closed blob such as a sphere)"
-        )
-    return ends + [end_b]
+    sources = np.unique(np.concatenate([e.vertices for e in ends])) if ends else np.zeros(0, np.int64)
+    tips = find_tips(V, topo.F, *normals, graph(), topo.edges, h, sources, used)
+    if len(ends) + len(tips) < 2:
+        more = [t["region"] for t in tips]
+        src = np.unique(np.concatenate([sources, *more])) if more else sources
+        extra = extreme_tips(V, graph(), h, src, used)
+        log.warning("fewer than two vessel ends recognised; taking %d extreme(s) of the surface as "
+                    "rounded ends", len(extra))
+        tips = tips + extra
+    found = [_make_end(nearby, "rounded", _ordered_ring(V, t), t["region"], t["center"], t["direction"], scale)
+             for t in tips]
+    found = [replace(e, radius=float(t["radius"])) for e, t in zip(found, tips)]
+    total = len(ends) + len(found)
+    if total < 2:
+        what = "no tube at the extremes" if not ends else "one end only"
+        raise NotTubularError(f"mesh is not tubular: no two ends found ({what}); pass a tube with two ends")
+    if total == 2 and found:
+        a, b = (ends + found)
+        length = float(np.linalg.norm(a.center - b.center))
+        diam = a.radius + b.radius
+        if length < tol.MIN_ASPECT * diam:
+            raise NotTubularError(
+                f"mesh is not tubular: no two ends found; its extremes are {length:.3g} apart, less "
+                f"than {tol.MIN_ASPECT:g} mean diameter ({diam:.3g}) (a closed blob such as a sphere)"
+            )
+    return found
+
+
+def _ordered_ring(V, t):
+    """The tip's ring ordered by angle about its axis (counter-clockwise seen from outside)."""
+    ring, c, n = t["ring"], t["center"], t["direction"]
+    u = V[ring] - c
+    u -= np.outer(u @ n, n)
+    e1 = u[np.argmax(np.linalg.norm(u, axis=1))]
+    if not np.linalg.norm(e1) > 0:
+        return ring
+    e1 = e1 / np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    return ring[np.argsort(np.arctan2(u @ e2, u @ e1), kind="stable")]
 
 
 def select_ends(ends, ends_arg=None):
@@ -430,7 +455,7 @@ def select_ends(ends, ends_arg=None):
     """
     ends = tuple(ends)
     k = len(ends)
-    listing = ", ".join(f"{i} {e.describe().split(' ', 1)[1]}" for i, e in enumerate(ends))
+    listing = end_listing(ends)
     kinds = {e.kind for e in ends}
     what = f"{k} {next(iter(kinds))} ends" if len(kinds) == 1 else f"{k} ends"
     if k < 2:
