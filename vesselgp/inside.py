@@ -3,10 +3,13 @@
 A generalized cylinder's axis must run inside the lumen and keep clear of the
 wall. :func:`check_axis_inside` verifies that against the surface itself, not
 against the fit's own data: the generalized winding number (Jacobson et al.
-2013; libigl ``fast_winding_number``, the point-cloud form of Barill et al.
-2018) of the surface with its open ends closed is about 1 inside and 0 outside,
+2013) of the surface with its open ends closed is about 1 inside and 0 outside,
 whatever holes or caps the mesh has; and the distance from the axis to the
 nearest surface sample must be a fair fraction of the local radius.
+
+The winding number is the point-cloud form (Barill et al. 2018, Eq. 5) summed
+directly over a few thousand samples (libigl's ``fast_winding_number`` gives
+the same values but allocates a fixed ~35 MB for its tree).
 
 The surface is represented by an evenly thinned subset of its vertices (with
 area-weighted normals and Voronoi areas scaled by the thinning) and by fan
@@ -58,6 +61,23 @@ def _closed_samples(V, F, area, loops):
     return np.ascontiguousarray(P), np.ascontiguousarray(Nn[first]), np.ascontiguousarray(A)
 
 
+def _point_cloud_winding(P, N, A, Q):
+    """Generalized winding number of oriented point samples at ``Q`` (Barill et al. 2018, Eq. 5).
+
+    ``w(q) = sum_i A_i (p_i - q) . n_i / (4 pi |p_i - q|^3)``, summed directly
+    (the samples are few: no tree, no far-field expansion; libigl's
+    ``fast_winding_number`` costs a fixed ~35 MB for its tree at any size).
+    Queries are processed in blocks to bound memory.
+    """
+    w = np.empty(len(Q))
+    block = max(1, tol.PROJECTION_CHUNK // (4 * len(P)))
+    for a in range(0, len(Q), block):
+        D = P[None, :, :] - Q[a:a + block, None, :]
+        r2 = np.einsum("qij,qij->qi", D, D)
+        w[a:a + block] = (np.einsum("qij,ij->qi", D, N) * A / (r2 * np.sqrt(r2))).sum(axis=1)
+    return w / (4.0 * np.pi)
+
+
 def axis_winding(V, F, Q, area=None, loops=None):
     """Generalized winding number of the closed surface at query points, and their distance to it.
 
@@ -86,7 +106,7 @@ def axis_winding(V, F, Q, area=None, loops=None):
         loops = mesh_topology(F, len(V)).boundary_loops
     P, N, A = _closed_samples(V, F, area, loops)
     Q = np.ascontiguousarray(Q, dtype=np.float64)
-    w = igl.fast_winding_number(P, N, A, Q)
+    w = _point_cloud_winding(P, N, A, Q)
     d = cKDTree(V[thinned(len(V), tol.INSIDE_SAMPLES)]).query(Q)[0]
     return w, d
 
