@@ -22,6 +22,7 @@ from vesselgp.synthetic import synthetic_vessel
 from vesselgp.synthetic_tree import synthetic_tree
 
 from _data import REAL
+from test_mesh import revolve  # the same surfaces of revolution as the mesh tests
 
 VOXEL = 0.5
 #: Accuracy asked of every end (issue #13): centre within 0.2 radius, radius within 15 %,
@@ -69,25 +70,6 @@ def tree_truth(tree):
 # --------------------------------------------------------------------------- #
 # shapes
 # --------------------------------------------------------------------------- #
-def revolve(rho, z, n=32, bottom=None, top=None):
-    """Rings of radius rho[k] at height z[k] about z, outward; a pole at its ring's height is a flat fan cap."""
-    rho, z = np.asarray(rho, float), np.asarray(z, float)
-    K = len(rho)
-    t = 2 * np.pi * np.arange(n) / n
-    V = np.c_[np.outer(rho, np.cos(t)).ravel(), np.outer(rho, np.sin(t)).ravel(), np.repeat(z, n)]
-    a = np.arange(n)
-    r0 = (np.arange(K - 1)[:, None] * n + a).ravel()
-    r1 = (np.arange(K - 1)[:, None] * n + (a + 1) % n).ravel()
-    F = [np.c_[r0, r1, r0 + n], np.c_[r1, r1 + n, r0 + n]]
-    if bottom is not None:
-        V = np.vstack([V, [0, 0, bottom]])
-        F.append(np.c_[np.full(n, len(V) - 1), (a + 1) % n, a])
-    if top is not None:
-        V = np.vstack([V, [0, 0, top]])
-        F.append(np.c_[np.full(n, len(V) - 1), (K - 1) * n + a, (K - 1) * n + (a + 1) % n])
-    return V, np.vstack(F).astype(np.int64)
-
-
 def capsule(R=1.0, length=5.0, n=32, m=8):
     """A cylinder of radius R along z from 0 to ``length`` between two hemispheres."""
     phi = np.linspace(0, np.pi / 2, m + 1)[1:]
