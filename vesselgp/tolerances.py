@@ -383,3 +383,8 @@ ENDS_TIP_DOME_FROM = 0.25
 ENDS_TIP_DOME_TO = 0.85
 #: Rounded tips: a maximum closer than this many radii to a tip's centre is on that tip.
 ENDS_TIP_SEPARATION = 1.5
+
+# --- branch decomposition of trees (vesselgp.branches) -----------------------
+#: A vertex lies on the path from the root to a tip when its geodesic excess
+#: d(root, v) + d(tip, v) - d(root, tip) is at most this many tip radii (the fit's path mask).
+BRANCH_PATH_RADII = 2.0
