@@ -25,9 +25,9 @@ from scipy.spatial import cKDTree
 from . import tolerances as tol
 from ._arrays import thinned
 from .errors import NotTubularError
-from .mesh import mesh_topology
+from .mesh import bbox_diagonal, format_point, mesh_topology
 
-__all__ = ["axis_winding", "check_axis_inside", "format_point"]
+__all__ = ["axis_winding", "check_axis_inside"]
 
 
 def _closed_samples(V, F, area, loops):
@@ -111,18 +111,6 @@ def axis_winding(V, F, Q, area=None, loops=None):
     return w, d
 
 
-def format_point(p, scale):
-    """A point printed with enough significant digits for a mesh of size ``scale``.
-
-    Examples
-    --------
-    >>> format_point([0.1234567, 0.1, 0.1], 0.05)
-    '(0.123457, 0.1, 0.1)'
-    """
-    dec = max(0, int(np.ceil(-np.log10(tol.PRINT_RESOLUTION * float(scale)))))
-    return "(" + ", ".join(f"{round(float(x), dec):.{dec}f}".rstrip("0").rstrip(".") for x in p) + ")"
-
-
 def check_axis_inside(V, F, s, points, radii, *, area=None, loops=None, ends_margin=None):
     """Raise :class:`NotTubularError` when the axis leaves the surface or grazes its wall.
 
@@ -161,7 +149,7 @@ def check_axis_inside(V, F, s, points, radii, *, area=None, loops=None, ends_mar
     if not bad.any():
         return
     k = int(np.flatnonzero(bad)[0])
-    scale = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
+    scale = bbox_diagonal(V)
     where = f"at s = {s[keep][k]:.3f} (point {format_point(points[keep][k], scale)})"
     what = (f"leaves the surface {where}, on {int(outside.sum())} of {int(keep.sum())} checked samples"
             if outside[k] else

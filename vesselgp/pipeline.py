@@ -32,11 +32,10 @@ from . import tolerances as tol
 from .deform import Frame
 from .errors import MismatchError, VesselError
 from .fit import fit_generalized_cylinder
-from .inside import format_point
 from .io import (read_case, read_mesh, to_json, write_case, write_csv, write_json, write_mesh,
                  write_polyline)
 from .join import JoinProblem, minimize_torsion
-from .mesh import clean_mesh, mesh_scale, stitch, vessel_ends
+from .mesh import clean_mesh, format_point, mesh_scale, stitch, vessel_ends
 from .mesh.scale import UNIT_NAMES, units_factor
 from .synthetic import deform_synthetic, paper_case, synthetic_vessel
 from .torsion import TorsionMeter
@@ -723,7 +722,7 @@ def ends_table(d):
     """Plain-text table (index, kind, radius, centre, direction) of :func:`run_ends`' result.
 
     Centres are printed to a ten-thousandth of the bounding-box diagonal
-    (:func:`vesselgp.inside.format_point`), directions to four decimals.
+    (:func:`vesselgp.mesh.format_point`), directions to four decimals.
 
     Examples
     --------

@@ -69,21 +69,32 @@ def unit_rows(X):
 
 
 def perpendicular(t):
-    """A unit vector perpendicular to unit ``t``: the coordinate axis least aligned with it, projected.
+    """Unit vectors perpendicular to unit ``t``: the coordinate axis least aligned with it, projected.
 
     A fixed, documented choice (not rotation-covariant), used only where the
     geometry offers none (a straight axis has no bend direction).
+
+    Parameters
+    ----------
+    t : (3,) or (k, 3) float64
+        Unit vector(s).
+
+    Returns
+    -------
+    (3,) or (k, 3) float64
 
     Examples
     --------
     >>> perpendicular(np.array([0.0, 0.0, 1.0])).tolist()
     [1.0, 0.0, 0.0]
+    >>> perpendicular(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])).tolist()
+    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
     """
     t = np.asarray(t, float)
-    e = np.zeros(3)
-    e[int(np.argmin(np.abs(t)))] = 1.0
-    u = e - (e @ t) * t
-    return u / np.linalg.norm(u)
+    T = np.atleast_2d(t)
+    e = np.eye(3)[np.argmin(np.abs(T), axis=1)]
+    u = unit_rows(e - np.einsum("ij,ij->i", e, T)[:, None] * T)
+    return u.reshape(t.shape)
 
 
 def rotate(v, axis, angle):

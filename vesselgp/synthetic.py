@@ -389,23 +389,6 @@ def _start_normal(T0, initial_normal):
     return r / nr
 
 
-def _unit_normals(T):
-    """One unit vector across each unit tangent (any will do: see :func:`_transport_maps`).
-
-    Parameters
-    ----------
-    T : (k, 3) float64
-
-    Returns
-    -------
-    (k, 3) float64
-        The coordinate axis least aligned with each row of ``T``, projected and normalised.
-    """
-    e = np.eye(3)[np.argmin(np.abs(T), axis=1)]
-    W = e - np.einsum("ij,ij->i", e, T)[:, None] * T
-    return W / np.linalg.norm(W, axis=1)[:, None]
-
-
 def _transport_maps(spline, s, T):
     """Solution maps of the RMF equation over each sample interval: ``U(s[i+1]) = Phi[i] @ U(s[i])``.
 
@@ -456,7 +439,7 @@ def _transport_maps(spline, s, T):
         U = y.reshape(-1, 3)
         return (-(h * np.einsum("ij,ij->i", U, dT))[:, None] * Tx).ravel()  # d/dtau = h d/ds
 
-    W = _unit_normals(T[:-1])
+    W = perpendicular(T[:-1])
     sol = solve_ivp(rhs, (0.0, 1.0), W.ravel(), method="DOP853", rtol=tol.SYNTH_RMF_RTOL, atol=tol.SYNTH_RMF_ATOL,
                     t_eval=[1.0])
     if not sol.success:

@@ -24,6 +24,7 @@ from .ends import VesselEnd, select_ends, vessel_ends
 from .scale import MeshScale, mesh_scale
 from .stitch import stitch
 from .topology import MeshTopology, mesh_topology
+from ._ends_format import bbox_diagonal, format_point
 
 __all__ = [
     "clean_mesh",
@@ -36,4 +37,6 @@ __all__ = [
     "stitch",
     "MeshTopology",
     "mesh_topology",
+    "format_point",
+    "bbox_diagonal",
 ]

@@ -1,7 +1,7 @@
 """Text of vessel ends in messages: points printed for the mesh's size, listings cut short.
 
-The mesh stage may not import :mod:`vesselgp.inside` (it imports the mesh
-stage), so :func:`format_point` repeats its few lines here.
+:func:`format_point` is the one rule for printed coordinates (re-exported by
+:mod:`vesselgp.mesh`; :mod:`vesselgp.inside` and the pipeline use it too).
 """
 from __future__ import annotations
 
@@ -15,8 +15,8 @@ __all__ = ["format_point", "bbox_diagonal", "end_listing"]
 def format_point(p, scale):
     """A point printed with enough significant digits for a mesh of size ``scale``.
 
-    Coordinates resolve ``tolerances.PRINT_RESOLUTION`` times ``scale`` (the
-    same rule as :func:`vesselgp.inside.format_point`).
+    Coordinates resolve ``tolerances.PRINT_RESOLUTION`` times ``scale``: three
+    ends of a metre-scale mesh do not all print as (0.1, 0.1, 0.1).
 
     Parameters
     ----------
