@@ -12,12 +12,14 @@ splits the surface into branches, without fitting any axis.
   geodesic distance from the root to their junction. Tips are merged bottom-up
   by the largest shared length (average linkage), which gives a rooted binary
   tree: a trifurcation comes out as two junctions close together.
-* **Vertices.** Vertex ``v`` lies on the path to tip ``j`` when its excess
-  ``d(root, v) + d(j, v) - d(root, j)`` is below ``tolerances.BRANCH_PATH_RADII``
-  end radii (the criterion of the fit's path mask). Its branch is the lowest
-  node of the tree that holds every tip whose path it lies on: the trunk's
-  vertices lie on every path, a leaf branch's only on its own, and the
-  surface around a junction goes to the parent branch.
+* **Vertices.** Vertex ``v`` follows the root-to-tip path it is nearest to,
+  the tip ``j`` of least geodesic excess ``d(root, v) + d(j, v) - d(root, j)``.
+  Along that path it sits on the first branch whose distal junction (shared
+  length) is farther from the root than ``d(root, v)``: a trunk vertex is
+  nearer the root than the first junction whichever side of the trunk it is
+  on, and the surface around a junction, up to the crotch, goes to the parent
+  branch. (A threshold on the excess, in tip radii, would hand the far side
+  of a wide trunk near a junction to a child.)
 """
 from __future__ import annotations
 
@@ -147,24 +149,20 @@ def branch_decomposition(V, F, ends, root=None):
         parent.append(p)
         stack.extend((c, len(order) - 1) for c in reversed(nodes[k][1]))
     branch_of = {k: i for i, k in enumerate(order)}
-    members = np.zeros((len(V), len(tips)), bool)
-    for c, j in enumerate(tips):
-        excess = dist[root] + dist[j] - to_tip[j]
-        members[:, c] = excess <= tol.BRANCH_PATH_RADII * float(ends[j].radius)
-    # the lowest node holding every tip of a vertex's paths (the nearest path when it is on none)
-    none = ~members.any(axis=1)
-    if none.any():
-        excess = np.stack([dist[root][none] + dist[j][none] - to_tip[j] for j in tips], axis=1)
-        members[np.flatnonzero(none), np.argmin(excess, axis=1)] = True
-    tipsets = [frozenset(tips.index(t) for t in nodes[k][0]) for k in order]
-    size = np.array([len(s) for s in tipsets])
+    # each vertex follows the path it is nearest to (least geodesic excess), and sits on the
+    # first branch of that path whose distal junction is farther from the root than itself
+    excess = np.stack([dist[root] + dist[j] - to_tip[j] for j in tips], axis=1)
+    nearest = np.argmin(excess, axis=1)
     vb = np.zeros(len(V), np.int64)
-    best = np.full(len(V), np.iinfo(np.int64).max)
-    for b, s in enumerate(tipsets):
-        cover = ~members[:, [c for c in range(len(tips)) if c not in s]].any(axis=1) if len(s) < len(tips) \
-            else np.ones(len(V), bool)
-        take = cover & (size[b] < best)
-        vb[take], best[take] = b, size[b]
+    for c, j in enumerate(tips):
+        leaf = branch_of[next(k for k in order if nodes[k][0] == (j,))]
+        path = [leaf]
+        while parent[path[-1]] >= 0:
+            path.append(parent[path[-1]])
+        path = path[::-1]
+        reach = np.array([nodes[order[p]][2] for p in path[:-1]])
+        m = nearest == c
+        vb[m] = np.asarray(path)[np.searchsorted(reach, dist[root][m], side="left")]
     return Branching(
         root=root, parent=np.asarray(parent, np.int64), tips=tuple(tuple(nodes[k][0]) for k in order),
         end_branch={nodes[k][0][0]: branch_of[k] for k in order if len(nodes[k][0]) == 1},

@@ -49,6 +49,7 @@ FACTOR, millimetres per mesh unit); lengths in every report are then millimetres
 run 'vesselgp <command> --help' for the options of a command.""",
     "fit": """examples:
   vesselgp fit vessel.stl -o fit
+  vesselgp fit aorto_iliac.stl -o tree                (branching: tree.json, tree.vtp, tree.png)
   vesselgp fit aorta.ply --ends 0 2 --axis-format vtp -o fit --json
   vesselgp fit vessel_in_metres.stl --units m -o fit     (lengths reported in mm)""",
     "torsion": """examples:
@@ -157,6 +158,17 @@ def cmd_fit(args):
     out = OutputFolder(args.output, [args.mesh], args.overwrite)
     gc, d = pipeline.run_fit(args.mesh, out, ends=args.ends, n_nodes=args.nodes, axis_format=args.axis_format,
                              shade=args.shade, units=args.units, scale=args.scale, render=not args.no_png)
+    if "paths" in d:  # a branching mesh, fitted as a tree
+        summary = {"command": "fit", "tree": True, **{k: d[k] for k in ("n_ends", "root", "converged", "time_s",
+                                                                        *_UNIT_KEYS)},
+                   "n_branches": len(d["branches"]), "n_junctions": len(d["junctions"]),
+                   "paths": [{k: p[k] for k in ("ends", "length", "mean_radius")} for p in d["paths"]],
+                   "files": out.files}
+        lines = "\n".join(f"  path {p['ends'][0]} -> {p['ends'][1]}: length {p['length']:.4g} mm, "
+                          f"mean radius {p['mean_radius']:.4g} mm" for p in d["paths"])
+        _emit(args, summary, f"fitted tree: {len(d['branches'])} branches, {len(d['junctions'])} junctions, "
+                             f"root end {d['root']}, {d['time_s']:.2f} s\n{lines}\n{_files_text(out)}")
+        return 0
     summary = {"command": "fit", **{k: d[k] for k in ("length", "mean_radius", "n_nodes", "iterations",
                                                       "converged", "time_s", *_UNIT_KEYS)}, "files": out.files}
     _emit(args, summary, f"fitted axis: length {gc.length:.4g} mm, mean radius {gc.mean_radius:.4g} mm, "
@@ -287,9 +299,12 @@ def _common(p, default_out):
 
 def _add_fit(sub, fmt):
     """The ``fit`` subcommand."""
-    p = sub.add_parser("fit", help="fit a generalized cylinder (axis, radius, frames) to a vessel mesh",
+    p = sub.add_parser("fit", help="fit a generalized cylinder (axis, radius, frames) to a vessel mesh, "
+                                   "or a tree of them to a branching one",
                        description="Fit a generalized cylinder (paper Eq. 1-5): axis, radius, "
-                                   "rotation-minimizing frames.", formatter_class=fmt, epilog=EPILOG["fit"])
+                                   "rotation-minimizing frames. A mesh with more than two ends is fitted as a "
+                                   "tree (one cylinder per branch, tree.json/.vtp/.ply and tree.png) unless "
+                                   "--ends picks one path.", formatter_class=fmt, epilog=EPILOG["fit"])
     p.add_argument("mesh", help="vessel mesh (.stl .ply .obj .off .vtp)")
     p.add_argument("--ends", type=int, nargs=2, metavar=("I", "J"),
                    help="indices of the two ends to fit between (for meshes with more than two ends; "

@@ -411,10 +411,7 @@ def fit_generalized_cylinder(
     mu = tol.GC_MU if mu is None else float(mu)
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
     _check_options(n_nodes, lam, mu, max_iter)
-    _check_used(V, F)
-    topo = mesh_topology(F, len(V))  # one edge table for the checks, the ends and the axis check
-    _check_connected(topo)
-    Fg = _nondegenerate_faces(V, F)
+    topo, Fg = checked_mesh(V, F)
     e0, e1, end_ids, n_ends = _resolve_ends(V, F, ends, topo)
     if initial_normal is not None:
         initial_normal = as_vector(initial_normal, "initial_normal")
@@ -430,25 +427,66 @@ def fit_generalized_cylinder(
     nodes, s_prev, L0 = _initial_nodes(V, Fg, e0, e1, np.where(end_region, 0.0, area), chord, rscale, n_nodes)
     K = len(nodes)
     sub = thinned(len(V), tol.GC_MAX_FIT_VERTICES)
-    it = _Iteration(nodes, s_prev[sub], None, 0, False)
-    window = 4.0 / (K - 1) + 2.0 * rscale / L0
-    for _ in range(max_iter):
-        it = _iterate(it, V[sub], area[sub], end_region[sub], initial_normal, window, lam, mu, rscale)
-        window = None
-        if it.converged:
-            break
-    else:
-        log.warning("generalized-cylinder fit did not converge in %d iterations "
-                    "(last axis step above %.3g radii)", max_iter, tol.GC_CONVERGENCE)
+    it = fixed_point(nodes, s_prev[sub], V[sub], area[sub], end_region[sub], rscale, L0,
+                     lam=lam, mu=mu, max_iter=max_iter, initial_normal=initial_normal)
     # final parameterisation on the converged axis, all vertices
     axis = Axis(it.nodes, initial_normal)
     if sub.step == 1:
         s_raw = axis.project(V, it.s, None)
     else:
         s_raw = axis.project(V, s_prev, 3.0 / (K - 1) + 2.0 * rscale / L0)
-    gc = _cylinder(axis, V, s_raw, end_region, area, it, mu, lam, end_ids)
+    gc = cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids)
     check_axis_inside(V, F, gc.s, gc.centers, gc.radii, area=wall_area, loops=topo.boundary_loops)
     return gc
+
+
+def fixed_point(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_iter, initial_normal=None,
+                what="generalized-cylinder fit"):
+    """Iterate Eq. 3 and Eq. 5 (projection, circle-fit correction, radius) to their fixed point.
+
+    Shared by :func:`fit_generalized_cylinder` and the per-branch fits of
+    :func:`vesselgp.tree.fit_vessel_tree`.
+
+    Parameters
+    ----------
+    nodes : (K, 3) float64
+        Initial axis nodes.
+    s0 : (q,) float64
+        Initial normalised arc length of each data vertex.
+    Vs : (q, 3) float64
+        The data vertices.
+    areas : (q,) float64
+        Their Voronoi areas (0 leaves a vertex out).
+    ends_s : (q,) bool
+        Cap or tip vertices (never data).
+    rscale : float
+        Radius scale: convergence and the outlier floor are in its units.
+    length0 : float
+        Length of the initial axis (sizes the first projection window).
+    lam, mu : float
+        Eq. 2 and Eq. 4 weights.
+    max_iter : int
+    initial_normal : (3,) float64, optional
+    what : str
+        Names the fit in the non-convergence warning.
+
+    Returns
+    -------
+    _Iteration
+        The last state; ``converged`` says whether the axis step fell below
+        ``tolerances.GC_CONVERGENCE`` radii (a warning is logged otherwise).
+    """
+    K = len(nodes)
+    it = _Iteration(nodes, s0, None, 0, False)
+    window = 4.0 / (K - 1) + 2.0 * rscale / length0
+    for _ in range(max_iter):
+        it = _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale)
+        window = None
+        if it.converged:
+            return it
+    log.warning("%s did not converge in %d iterations (last axis step above %.3g radii)",
+                what, max_iter, tol.GC_CONVERGENCE)
+    return it
 
 
 @dataclass(frozen=True)
@@ -461,6 +499,7 @@ class _Iteration:
     count: int
     converged: bool
     rejected: np.ndarray | None = None
+    step: float = np.inf
 
 
 def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
@@ -476,9 +515,13 @@ def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
     w = _robust_weights(s, local, jac, areas, it.radii, inside, it.rejected)
     _, fr_nodes = axis.at(np.linspace(0, 1, K))
     corr = circle_fit_correction(fr_nodes, nodes, s, local, w, lam, rscale)
+    step = float(np.abs(corr).max())
+    if frozen and step >= tol.GC_DAMP_RATIO * it.step:
+        # with the outlier set fixed the map is smooth: a step that does not shrink is a
+        # period-two oscillation of a node with little data (near a cut end); halve it
+        corr = 0.5 * corr
     nodes = nodes + corr
     radii = _radius_fit(s, np.hypot(local[:, 1], local[:, 2]), w, K, mu)
-    step = float(np.abs(corr).max())
     # parameters on the corrected axis, for the next projection's start
     new_arc = chord_length(nodes)
     s_next = np.interp(s, np.linspace(0, 1, K), new_arc / new_arc[-1])
@@ -489,11 +532,15 @@ def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
     if not frozen and it.radii is not None and step < tol.GC_REWEIGHT_UNTIL * rscale:
         rejected = (w == 0) & inside & (jac > tol.GC_MIN_STRETCH)
     return _Iteration(resample_arclength(nodes, K), s_next, radii, it.count + 1,
-                      step < tol.GC_CONVERGENCE * rscale, rejected)
+                      step < tol.GC_CONVERGENCE * rscale, rejected, step)
 
 
-def _cylinder(axis, V, s_raw, end_region, area, it, mu, lam, end_ids):
-    """The :class:`GeneralizedCylinder` from the final projection of every vertex."""
+def cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids):
+    """The :class:`GeneralizedCylinder` of a converged axis from the final projection ``s_raw`` of ``V``.
+
+    The radius (Eq. 4-5) is refitted on these vertices with the outlier test
+    against ``it.radii``; ``it`` also gives the iteration count and convergence.
+    """
     K = len(it.nodes)
     inside = (s_raw > 0) & (s_raw < 1) & ~end_region
     s = np.clip(s_raw, 0, 1)
@@ -519,6 +566,33 @@ def _check_options(n_nodes, lam, mu, max_iter):
         raise OptionError(f"lam and mu must be finite and non-negative, got {lam!r}, {mu!r}")
     if max_iter < 1:
         raise OptionError(f"max_iter must be at least 1, got {max_iter}")
+
+
+def checked_mesh(V, F):
+    """The checks every fit makes of its mesh; its topology and the faces with a well-defined area.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+
+    Returns
+    -------
+    topology : MeshTopology
+        One edge table for the checks, the ends and the axis check.
+    Fg : (m', 3) int64
+        ``F`` without its zero-area faces.
+
+    Raises
+    ------
+    InvalidMeshError
+        Unreferenced vertices, several connected components, or vertices used only
+        by zero-area faces.
+    """
+    _check_used(V, F)
+    topo = mesh_topology(F, len(V))
+    _check_connected(topo)
+    return topo, _nondegenerate_faces(V, F)
 
 
 def _check_used(V, F):

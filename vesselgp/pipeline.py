@@ -32,7 +32,8 @@ from . import tolerances as tol
 from .deform import Frame
 from .errors import MismatchError, VesselError
 from .fit import fit_generalized_cylinder
-from .io import (read_case, read_mesh, to_json, write_case, write_csv, write_json, write_mesh,
+from .tree import fit_vessel_tree
+from .io import (read_case, read_mesh, to_json, write_case, write_csv, write_json, write_mesh, write_polylines,
                  write_polyline)
 from .join import JoinProblem, minimize_torsion
 from .mesh import clean_mesh, format_point, mesh_scale, stitch, vessel_ends
@@ -290,7 +291,8 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
             render=True):
     """Fit a generalized cylinder to a mesh file and write ``axis.*`` and the shaded mesh into ``out``.
 
-    Lengths in every output are millimetres (see :func:`read_mesh_in`).
+    A mesh with more than two ends and no ``ends`` given is fitted as a tree
+    (:func:`run_fit_tree`). Lengths in every output are millimetres (see :func:`read_mesh_in`).
 
     Parameters
     ----------
@@ -308,10 +310,14 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
 
     Returns
     -------
-    (GeneralizedCylinder, dict)
-        The fit and the contents of ``axis.json``.
+    (GeneralizedCylinder, dict) or (VesselTree, dict)
+        The fit and the contents of ``axis.json`` (``tree.json`` for a tree).
     """
     V, F, uinfo = read_mesh_in(mesh, units, scale)
+    if ends is None:
+        found = vessel_ends(V, F)
+        if len(found) > 2:
+            return run_fit_tree(V, F, mesh, out, found, uinfo, axis_format=axis_format, render=render)
     t0 = time.perf_counter()
     gc = fit_generalized_cylinder(V, F, ends=ends, n_nodes=n_nodes)
     dt = time.perf_counter() - t0
@@ -342,6 +348,82 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
                               f"mean radius {gc.mean_radius:.3g}",
                         period=360.0 if shade == "theta" else None, lines=[gc.dense_points])
     return gc, d
+
+
+def tree_to_dict(tree, units="mm"):
+    """JSON-ready description of a :class:`vesselgp.tree.VesselTree` (``tree.json`` of ``vesselgp fit``)."""
+    def branch(b, gc):
+        return {"id": b, "parent": int(tree.parent[b]), "ends": list(gc.ends), "length": gc.length,
+                "mean_radius": gc.mean_radius, "iterations": gc.iterations, "converged": gc.converged,
+                "n_vertices": int(np.count_nonzero(tree.vertex_branch == b)), "s": gc.s, "centers": gc.centers,
+                "radii": gc.radii, "frames": {"T": gc.frames[:, 0], "U": gc.frames[:, 1], "V": gc.frames[:, 2]}}
+    return {
+        "units": units, "n_ends": len(tree.ends), "root": tree.root,
+        "ends": [{"index": i, "kind": e.kind, "radius": float(e.radius), "center": np.asarray(e.center, float),
+                  "direction": np.asarray(e.direction, float)} for i, e in enumerate(tree.ends)],
+        "junctions": [{"point": q, "branch": int(b), "children": [int(c) for c in np.flatnonzero(tree.parent == b)]}
+                      for q, b in zip(tree.junctions, tree.junction_branch)],
+        "branches": [branch(b, gc) for b, gc in enumerate(tree.branches)],
+        "paths": [{"ends": list(p.ends), "branches": list(c), "length": p.length, "mean_radius": p.mean_radius,
+                   "min_radius": float(p.radii.min()), "max_radius": float(p.radii.max())}
+                  for p, c in zip(tree.paths, tree.path_branches)],
+        "converged": all(gc.converged for gc in tree.branches),
+        "n_vertices": len(tree.vertex_branch),
+    }
+
+
+def run_fit_tree(V, F, mesh, out, ends, uinfo, *, axis_format="both", render=True):
+    """Fit a branching mesh as a vessel tree and write ``tree.*`` and the branch-coloured mesh into ``out``.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        Vertices in millimetres.
+    F : (m, 3) int64
+    mesh : str or os.PathLike
+        The input file (named in the report and the picture).
+    out : OutputFolder
+    ends : sequence of VesselEnd
+        The mesh's ends (:func:`vesselgp.vessel_ends`).
+    uinfo : dict
+        Units of the input (:func:`read_mesh_in`).
+    axis_format : {"vtp", "ply", "both"}
+    render : bool
+
+    Returns
+    -------
+    (VesselTree, dict)
+        The tree and the contents of ``tree.json``. ``tree.vtp`` / ``tree.ply``
+        hold one polyline per branch with point data ``Radius`` (also as
+        ``MaximumInscribedSphereRadius``, VMTK's and 3D Slicer's name) and
+        ``Abscissa`` (mm from the branch start), and cell data ``BranchId``
+        and ``ParentId``; ``mesh_branches.ply`` has each vertex's ``branch``.
+    """
+    t0 = time.perf_counter()
+    tree = fit_vessel_tree(V, F, ends=ends)
+    dt = time.perf_counter() - t0
+    d = {**tree_to_dict(tree), **uinfo, "bbox_diagonal": float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))),
+         "input": str(mesh), "time_s": dt}
+    write_json(out("tree.json"), d)
+    radius = np.concatenate([gc.radii for gc in tree.branches])
+    pdata = {"Radius": radius, "MaximumInscribedSphereRadius": radius,
+             "Abscissa": np.concatenate([gc.s * gc.length for gc in tree.branches]),
+             "T": np.concatenate([gc.frames[:, 0] for gc in tree.branches]),
+             "U": np.concatenate([gc.frames[:, 1] for gc in tree.branches])}
+    cdata = {"BranchId": np.arange(len(tree.branches)), "ParentId": tree.parent}
+    for ext in (("vtp", "ply") if axis_format == "both" else (axis_format,)):
+        write_polylines(out(f"tree.{ext}"), [gc.centers for gc in tree.branches], pdata, cdata)
+    vb = tree.vertex_branch.astype(float)
+    ncol = 10 if len(tree.branches) <= 10 else 20  # one colour of the qualitative map per branch (cycled)
+    cmap, shade = f"tab{ncol}", np.mod(vb, ncol)
+    write_mesh(out("mesh_branches.ply"), V, F, vertex_colors=torsion_colors(shade, -0.5, ncol - 0.5, cmap),
+               vertex_scalars={"branch": vb})
+    if render:
+        render_mesh(out("tree.png"), V, F, shade, vmin=-0.5, vmax=ncol - 0.5, cmap=cmap,
+                    cbar_label="branch", alpha=tol.VIZ_TREE_ALPHA, lines=[gc.dense_points for gc in tree.branches],
+                    title=f"{Path(mesh).name}: {len(tree.branches)} branches, {len(tree.junctions)} junctions, "
+                          f"{len(tree.paths)} paths")
+    return tree, to_json(d)
 
 
 def run_torsion(rest, deformed, out, *, smoothing=None, ends=None, units=None, scale=None, render=True):

@@ -86,6 +86,9 @@ GC_COARSE_CELL_RADII = 0.3
 #: The fit iterates on at most about this many vertices (evenly thinned); the final
 #: parameterisation uses every vertex.
 GC_MAX_FIT_VERTICES = 60000
+#: Once the outlier set is fixed, an axis step at least this fraction of the previous one is
+#: halved (damps the period-two oscillation of a node with little data, near a cut end).
+GC_DAMP_RATIO = 0.9
 #: Newton steps refining each vertex's closest-point parameter on the axis.
 GC_NEWTON_STEPS = 3
 #: Dense samples of the axis per node spacing, used to project vertices onto the axis.
@@ -388,3 +391,22 @@ ENDS_TIP_SEPARATION = 1.5
 #: A vertex lies on the path from the root to a tip when its geodesic excess
 #: d(root, v) + d(tip, v) - d(root, tip) is at most this many tip radii (the fit's path mask).
 BRANCH_PATH_RADII = 2.0
+
+
+# ----------------------------------------------------------------------------- vessel trees (vesselgp.tree)
+
+#: Bands of root distance used to estimate a branch's radius before its first axis.
+TREE_INIT_BANDS = 24
+#: A branch end's line (towards its junction) is the chord of its axis over this many radii ...
+TREE_JUNCTION_CHORD = 3.0
+#: ... starting this many radii from the end (the last stretch is bent by the junction's bulge).
+TREE_JUNCTION_SKIP = 1.5
+#: Weight (against the squared sines of the branch angles) pulling a junction towards the parent's
+#: axis end (keeps a shallow bifurcation, with nearly parallel lines, solvable).
+TREE_JUNCTION_ANCHOR = 0.02
+#: A junction lies at most this many parent radii beyond the parent's fitted axis end.
+TREE_JUNCTION_REACH = 2.0
+#: Projection window of the final branch and path parameterisation, in radii.
+TREE_PROJECTION_WINDOW = 2.0
+#: Opacity of the mesh in the tree picture of ``vesselgp fit`` (the axis network shows through).
+VIZ_TREE_ALPHA = 0.35

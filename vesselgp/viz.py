@@ -345,9 +345,9 @@ def _shaded_polygons(meshes, basis, norm, cmap, color, period=None):
     return np.concatenate(polys)[order], np.concatenate(cols)[order]
 
 
-def _render_figure(poly, col, title, colorbar, lines=()):
+def _render_figure(poly, col, title, colorbar, lines=(), alpha=None):
     """Figure of screen polygons at equal aspect; ``colorbar`` is None or (ScalarMappable, label);
-    ``lines`` are screen polylines (k, 2) drawn on top."""
+    ``lines`` are screen polylines (k, 2) drawn on top; ``alpha`` makes the faces translucent."""
     from matplotlib.collections import PolyCollection
 
     xy = poly.reshape(-1, 2)
@@ -363,7 +363,8 @@ def _render_figure(poly, col, title, colorbar, lines=()):
     fig = _figure((W, H))
     yb = (H - top - ha) / 2
     ax = fig.add_axes([0.3 / W, yb / H, wa / W, ha / H])
-    ax.add_collection(PolyCollection(poly, facecolors=col, edgecolors=col, linewidths=0.6, antialiaseds=False))
+    ax.add_collection(PolyCollection(poly, facecolors=col, edgecolors=col if alpha is None else "none",
+                                     linewidths=0.6 if alpha is None else 0.0, antialiaseds=False, alpha=alpha))
     for L in lines:
         ax.plot(L[:, 0], L[:, 1], "-", color="black", lw=1.6, alpha=0.85, solid_capstyle="round")
     pad = 0.02 * max(w, h)
@@ -382,7 +383,7 @@ def _render_figure(poly, col, title, colorbar, lines=()):
 
 def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material twist \u03b1 (deg)",
                 view=None, vmin=None, vmax=None, cmap="coolwarm", others=(), color=(0.85, 0.45, 0.4),
-                max_faces=None, dpi=None, period=None, lines=()):
+                max_faces=None, dpi=None, period=None, lines=(), alpha=None):
     """Render a (shaded) mesh to a PNG, headless.
 
     Orthographic view from :func:`view_basis` (side-on, equal aspect), faces
@@ -424,6 +425,8 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
         vertex instead of interpolating across the wrap.
     lines : sequence of (k, 3) float64
         Polylines (e.g. the fitted axis) drawn over the mesh, in black.
+    alpha : float, optional
+        Opacity of the faces in (0, 1]: a translucent mesh shows the lines inside it.
 
     Returns
     -------
@@ -461,7 +464,9 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
     poly, col = _shaded_polygons(meshes, basis, norm, cm, color, period)
     bar = None if S is None else (ScalarMappable(norm=norm, cmap=cm), cbar_label)
     drawn = [np.asarray(L, float) @ basis[:2].T for L in lines]
-    fig = _render_figure(poly, col, title, bar, drawn)
+    if alpha is not None and not 0 < float(alpha) <= 1:
+        raise OptionError(f"alpha must be in (0, 1], got {alpha!r}")
+    fig = _render_figure(poly, col, title, bar, drawn, alpha)
     _save_png(fig, path, dpi, facecolor="white")
     log.info("rendered %s (%d faces)", path, len(poly))
     return Path(path)

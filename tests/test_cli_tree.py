@@ -1,0 +1,70 @@
+"""`vesselgp fit` on a branching mesh fits the tree (issue #13, item 6): tree.json, tree.vtp, tree.ply, tree.png."""
+import json
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from vesselgp.cli import main
+from vesselgp.io import read_mesh, write_mesh
+from vesselgp.synthetic import synthetic_tree
+
+from test_viz import assert_png
+
+
+@pytest.fixture(scope="module")
+def tree_file(tmp_path_factory):
+    t = synthetic_tree(levels=1, voxel=0.6)
+    path = tmp_path_factory.mktemp("tree") / "y.ply"
+    write_mesh(path, t.V, t.F)
+    return path, t
+
+
+def _arrays(elem):
+    return {da.get("Name"): np.array(da.text.split(), float) for da in elem.iter("DataArray")}
+
+
+def test_fit_writes_the_tree(tree_file, tmp_path, capsys):
+    path, t = tree_file
+    out = tmp_path / "fit"
+    assert main(["fit", str(path), "-o", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["tree"] and summary["n_branches"] == 3 and summary["n_junctions"] == 1
+    names = {p.name for p in out.iterdir()}
+    assert {"tree.json", "tree.vtp", "tree.ply", "tree.png", "mesh_branches.ply"} <= names
+    assert not names & {"axis.json", "axis.vtp"}
+    d = json.loads((out / "tree.json").read_text())
+    assert d["n_ends"] == 3 and d["units"] == "mm" and len(d["paths"]) == 2
+    assert [b["parent"] for b in d["branches"]] == [-1, 0, 0]
+    J, R = t.truth.junctions
+    assert np.linalg.norm(np.array(d["junctions"][0]["point"]) - J[0]) < 0.5 * R[0]
+    # VTP: one line per branch, VMTK's radius name beside ours, branch and parent ids per line
+    root = ET.parse(out / "tree.vtp").getroot()
+    piece = root.find("PolyData/Piece")
+    assert piece.get("NumberOfLines") == "3"
+    pdata, cdata = _arrays(piece.find("PointData")), _arrays(piece.find("CellData"))
+    assert np.array_equal(pdata["Radius"], pdata["MaximumInscribedSphereRadius"])
+    assert cdata["BranchId"].tolist() == [0, 1, 2] and cdata["ParentId"].tolist() == [-1, 0, 0]
+    offsets = _arrays(piece.find("Lines"))["offsets"]
+    assert offsets[-1] == int(piece.get("NumberOfPoints"))
+    pts = _arrays(piece.find("Points"))[None].reshape(-1, 3)
+    d_true, r_true, _, _ = t.truth.nearest(pts)
+    keep = t.truth.interior_mask(pts)
+    assert (d_true[keep] < 0.05 * r_true[keep]).all()  # the nodes lie on the true centre lines
+    assert np.abs(pdata["Radius"][keep] / r_true[keep] - 1).max() < 0.05
+    # PLY: vertices and edges, one edge fewer per line than its points
+    ply = (out / "tree.ply").read_text()
+    nv = int(ply.split("element vertex ")[1].split()[0])
+    ne = int(ply.split("element edge ")[1].split()[0])
+    assert ne == nv - 3
+    Vb, Fb = read_mesh(out / "mesh_branches.ply")[:2]
+    assert len(Vb) == len(t.V)
+    assert_png(out / "tree.png")
+
+
+def test_ends_still_pick_one_path(tree_file, tmp_path, capsys):
+    path, t = tree_file
+    out = tmp_path / "one"
+    assert main(["fit", str(path), "--ends", "0", "1", "-o", str(out), "-q", "--no-png"]) == 0
+    names = {p.name for p in out.iterdir()}
+    assert "axis.json" in names and "tree.json" not in names
