@@ -12,6 +12,10 @@ aortic root): JoinProblem setup (fit, meter, ARAP factorisation), one energy
 evaluation, one ARAP iteration with the factorisation reused, the whole
 minimize_torsion and its number of evaluations.
 
+Vessel trees (default ~27k, 50k, 200k vertices, 4 tips; scripts/bench_tree.py):
+fit_vessel_tree beside one igl.cotmatrix of the same mesh and, when the VMTK
+peer venv exists, VMTK's centre lines and branch splitting on the same mesh.
+
 Prints the machine, a table with targets and PASS/MISS, and writes JSON
 (default bench-results/bench.json).
 
@@ -425,6 +429,9 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", default="10k,100k,200k,1M", help="fit/torsion vertex counts (default %(default)s)")
     ap.add_argument("--join-sizes", default="10k,50k,200k", help="join vertex counts (default %(default)s)")
+    ap.add_argument("--tree-sizes", default="27k,50k,200k",
+                    help="vessel-tree vertex counts, 4 tips (default %(default)s; VMTK beside the ~27k one "
+                         "when its venv exists, see scripts/bench_tree.py)")
     ap.add_argument("--quick", action="store_true", help="10k fit and join only (smoke test, a few seconds)")
     ap.add_argument("--repeat", type=int, default=3, help="timed repetitions below 300k vertices (median)")
     ap.add_argument("--format", default=".ply", choices=(".ply", ".stl", ".obj", ".off", ".vtp"),
@@ -435,7 +442,7 @@ def main(argv=None):
     ap.add_argument("--label", help="free text recorded with the results (e.g. which code was benchmarked)")
     args = ap.parse_args(argv)
     if args.quick:
-        args.sizes, args.join_sizes = "10k", "10k"
+        args.sizes, args.join_sizes, args.tree_sizes = "10k", "10k", "27k"
     sizes = [parse_size(s) for s in args.sizes.split(",") if s.strip()]
     jsizes = [parse_size(s) for s in args.join_sizes.split(",") if s.strip()]
 
@@ -466,17 +473,31 @@ def main(argv=None):
         except Exception as exc:
             errors.append(f"join {fmt_size(n)}: {type(exc).__name__}: {exc}")
             print("    FAILED:", errors[-1], flush=True)
+    import bench_tree
+
+    tree_rows = []
+    vm = bench_tree.DEFAULT_VMTK if bench_tree.DEFAULT_VMTK.exists() else None
+    for n in [parse_size(s) for s in args.tree_sizes.split(",") if s.strip()]:
+        print(f"tree ~{fmt_size(n)} ...", flush=True)
+        try:
+            tree_rows.append(bench_tree.bench_tree(n, args.repeat, vm if n <= 30_000 else None))
+            print("   ", {k: (round(v, 4) if isinstance(v, float) else v) for k, v in tree_rows[-1].items()}, flush=True)
+        except Exception as exc:
+            errors.append(f"tree {fmt_size(n)}: {type(exc).__name__}: {exc}")
+            print("    FAILED:", errors[-1], flush=True)
     mach["load_1min_at_end"] = round(os.getloadavg()[0], 2)
-    targets = evaluate_targets(fit_rows, join_rows)
+    targets = evaluate_targets(fit_rows, join_rows) + bench_tree.tree_targets(tree_rows)
     date = datetime.date.today().isoformat()
     md = markdown(fit_rows, join_rows, targets, mach, date)
+    if tree_rows:
+        md += "\n\n" + bench_tree.tree_markdown(tree_rows)
     print()
     print(md)
     if errors:
         print("\nerrors:\n  " + "\n  ".join(errors))
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps({"date": date, "machine": mach, "fit": fit_rows, "join": join_rows,
+    out.write_text(json.dumps({"date": date, "machine": mach, "fit": fit_rows, "join": join_rows, "tree": tree_rows,
                                "targets": targets, "errors": errors}, indent=1))
     print(f"\nwrote {out}")
     if args.markdown:

@@ -86,6 +86,24 @@ MUTATIONS = {
         "        a = self.alpha_end(0.0) * self._vg",
         ["tests/test_deform.py", "tests/test_join.py"],
     ),
+    "tree_child_rmf_not_transported": (
+        "vesselgp/tree.py",
+        "            normal = minimal_rotation(pf[0], T0).apply(pf[1])",
+        "            normal = None",
+        ["tests/test_tree.py"],
+    ),
+    "tree_junction_link_straight": (
+        "vesselgp/tree.py",
+        "        link = _hermite(p0, d_out, J, gap / np.linalg.norm(gap), k)",
+        "        link = np.vstack([p0, J])",
+        ["tests/test_tree.py"],
+    ),
+    "branches_nearest_path_ignored": (
+        "vesselgp/branches.py",
+        "    nearest = np.argmin(excess, axis=1)",
+        "    nearest = np.zeros(len(V), np.int64)",
+        ["tests/test_branches.py", "tests/test_tree.py"],
+    ),
 }
 
 

@@ -21,7 +21,7 @@ from _data import REAL
 # README "Vessel trees" table: worst and mean path-axis error (% of the true radius) away from
 # junctions (2 r) and tips (1.5 r), per tree; the tests assert 1.5 x these figures.
 README_AXIS = {"4 tips": (2.2, 0.062), "3 tips": (1.3, 0.042), "8 tips": (2.5, 0.073)}
-README_RADIUS_MAX = 3.7       # % worst radius error over the same stretch (8 tips)
+README_RADIUS_MAX = {"4 tips": 0.65, "3 tips": 0.8, "8 tips": 3.75}  # % worst radius error, same stretch
 README_JUNCTION = 0.29        # junction distance from the true one, in parent end radii
 
 
@@ -69,7 +69,7 @@ def test_path_axes_lie_on_the_true_centre_lines(fitted):
         assert err.max() <= min(1.5 * worst, 5.0), (p.ends, err.max())
         assert err.mean() <= min(1.5 * mean, 1.0), (p.ends, err.mean())
         rad = 100 * np.abs(p.radius_at(p.dense_s)[keep] - r[keep]) / r[keep]
-        assert rad.max() <= 1.5 * README_RADIUS_MAX, (p.ends, rad.max())
+        assert rad.max() <= 1.5 * README_RADIUS_MAX[name], (p.ends, rad.max())
         # the path runs from the root's centre to the tip's
         tip = t.truth.ends[_truth_end(t, tree.ends[p.ends[1]])]
         assert np.linalg.norm(P[0] - t.truth.ends[0].center) < 0.05 * t.truth.ends[0].radius

@@ -25,7 +25,7 @@ from .errors import NotTubularError
 from .rotations import perpendicular
 
 __all__ = ["Axis", "interp_frames", "hat", "hat_matrix", "difference_matrix", "circle_fit_correction",
-           "checked_solution", "local_coords"]
+           "checked_solution", "solve_banded_spd", "local_coords"]
 
 
 def _segment_table(dp, dfr, kvec=None):
@@ -287,7 +287,7 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
         rhs[pinned] = 0.0
     bw = int((rows - cols).max())
     ab = np.bincount((rows - cols) * n3 + cols, vals, minlength=(bw + 1) * n3).reshape(bw + 1, n3)
-    sol = _solve_banded(ab, rhs)
+    sol = solve_banded_spd(ab, rhs)
     return sol[0::3, None] * E[0] + sol[1::3, None] * E[1]
 
 
@@ -309,7 +309,7 @@ def checked_solution(x):
     return x
 
 
-def _solve_banded(ab, rhs):
+def solve_banded_spd(ab, rhs):
     """Banded Cholesky solve (lower form); failure means the surface does not surround an axis."""
     try:
         x = solveh_banded(ab, rhs, lower=True)

@@ -31,7 +31,6 @@ the fitted radius.
 from __future__ import annotations
 
 import logging
-import warnings
 from dataclasses import dataclass, field
 
 import igl
@@ -42,8 +41,8 @@ import scipy.sparse.linalg as spla
 from . import tolerances as tol
 from ._arrays import thinned, unique_rows
 from ._validate import as_mesh, as_vector
-from .axis import (Axis, checked_solution, circle_fit_correction, difference_matrix, hat_matrix,
-                   interp_frames, local_coords)
+from .axis import (Axis, checked_solution, circle_fit_correction, hat, interp_frames, local_coords,
+                   solve_banded_spd)
 from .curves import chord_length, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError
 from .inside import check_axis_inside
@@ -148,26 +147,24 @@ class GeneralizedCylinder:
 
 
 def _radius_fit(s, rho, w, K, mu):
-    """Eq. 4: r(s) minimising sum w (r(s_i) - rho_i)^2 + mu * int r'^2, hat functions in s."""
-    B = hat_matrix(s, K)
-    Bw = B.multiply(w[:, None]).tocsr()
-    N = (B.T @ Bw).tocsr()
-    rhs = Bw.T @ rho
-    Wbar = float(N.diagonal().mean())
-    D1 = difference_matrix(K, 1)
-    N = N + mu * Wbar * (D1.T @ D1) + tol.GC_RADIUS_RIDGE * Wbar * sp.eye(K)
-    return _solve(N, rhs)
+    """Eq. 4: r(s) minimising sum w (r(s_i) - rho_i)^2 + mu * int r'^2, hat functions in s.
 
-
-def _solve(N, rhs):
-    """Sparse solve; a singular or non-finite system means the surface does not surround an axis."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", spla.MatrixRankWarning)
-        try:
-            x = spla.spsolve(N.tocsc(), rhs)
-        except (spla.MatrixRankWarning, RuntimeError):
-            x = None
-    return checked_solution(x)
+    The normal matrix of hat functions is tridiagonal: it is assembled with
+    ``bincount`` and solved by banded Cholesky.
+    """
+    j, t = hat(s, K)
+    a, b = w * (1 - t), w * t
+    diag = np.bincount(j, a * (1 - t), K) + np.bincount(j + 1, b * t, K)
+    off = np.bincount(j, a * t, K - 1)
+    rhs = np.bincount(j, a * rho, K) + np.bincount(j + 1, b * rho, K)
+    Wbar = float(diag.mean())
+    reg = mu * Wbar
+    d1 = np.full(K, 2.0 * reg)
+    d1[[0, -1]] = reg
+    ab = np.zeros((2, K))
+    ab[0] = diag + d1 + tol.GC_RADIUS_RIDGE * Wbar
+    ab[1, :-1] = off - reg
+    return solve_banded_spd(ab, rhs)
 
 
 def _robust_weights(s, local, jac, area, radii, inside, rejected=None):

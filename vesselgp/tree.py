@@ -290,14 +290,17 @@ def _scattered(gc, idx, n):
 def _cylinder(V, area, caps_all, idx, nodes, s_prev, it, normal, ends, lam, mu, rscale):
     """The generalized cylinder of one branch (or path) through ``nodes``, on vertices ``idx``.
 
-    ``s_prev`` is each vertex's parameter to start the projection from, or
-    (q, 3) points near the new axis whose nearest axis sample gives it.
+    ``s_prev`` is each vertex's parameter on this axis (Newton steps refine
+    it), or (q, 3) points near the axis whose nearest axis sample starts a
+    windowed projection.
     """
     K = len(nodes)
     axis = Axis(nodes, normal)
     if np.ndim(s_prev) == 2:
         s_prev = axis.s[cKDTree(axis.points).query(s_prev)[1]]
-    window = tol.TREE_PROJECTION_WINDOW * rscale / axis.length + 2.0 / (K - 1)
+        window = tol.TREE_PROJECTION_WINDOW * rscale / axis.length + 2.0 / (K - 1)
+    else:  # parameters already on this axis (a path from its branches): Newton steps only
+        window = None
     s_raw = axis.project(V[idx], s_prev, window)
     gc = cylinder_from_axis(axis, V[idx], s_raw, caps_all[idx], area[idx], it, mu, lam, ends)
     return _scattered(gc, idx, len(V)), axis

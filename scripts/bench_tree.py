@@ -1,0 +1,163 @@
+#!/usr/bin/env python
+"""Vessel-tree benchmark (issue #13): fit_vessel_tree beside a libigl cotmatrix and VMTK on the same mesh.
+
+For each size, a synthetic 4-tip tree (``synthetic_tree(levels=2, target_vertices=n)``): the
+median time of ``fit_vessel_tree`` (ends, branch decomposition, branch fits, paths, axis checks),
+of one ``igl.cotmatrix`` of the same mesh (the machine-independent yardstick), their ratio, and the
+path-axis error against the exact centre lines away from junctions (2 r) and tips (1.5 r).
+
+When the VMTK peer environment exists (``../shared/peers/vmtk``; ``--vmtk PYTHON`` or
+``/tmp/peer-vmtk/bin/python``), VMTK runs on the same mesh (STL) in its own process with its fastest
+Delaunay (qhull), seeded at the true root and tip centres: its centre-line stages
+(``qhull_tessellation + centerlines``), its branch splitting, and the error of its lines.
+
+Usage::
+
+    python scripts/bench_tree.py                  # 27k, 50k, 200k trees (VMTK on 27k)
+    python scripts/bench_tree.py --sizes 27k --vmtk /tmp/peer-vmtk/bin/python
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from bench import timeit
+
+REPO = Path(__file__).resolve().parents[1]
+PEER = REPO.parent / "shared" / "peers" / "vmtk" / "vmtk_tree.py"
+DEFAULT_VMTK = Path("/tmp/peer-vmtk/bin/python")
+
+
+def _errors(truth, P):
+    """Worst and mean distance (% of the true radius) of points to the true centre lines, interior only."""
+    d, r, _, _ = truth.nearest(P)
+    keep = truth.interior_mask(P)
+    e = 100 * d[keep] / r[keep]
+    return float(e.max()), float(e.mean())
+
+
+def _vmtk(python, stl, truth, tmp):
+    """VMTK's tree on the same mesh: stage timings and the error of its centre lines."""
+    src = truth.ends[0].center
+    tg = np.concatenate([e.center for e in truth.tips])
+    out = os.path.join(tmp, "vmtk.npz")
+    cmd = [str(python), str(PEER), str(stl), "--source", *map(str, src), "--targets", *map(str, tg),
+           "--delaunay", "qhull", "-o", out]
+    res = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    tm = json.loads(res.stdout.strip().splitlines()[-1])["timings_s"]
+    z = np.load(out)
+    lines = [z[k] for k in z.files if k.endswith("_points")]
+    errs = [_errors(truth, L) for L in lines]
+    return {"vmtk_centerline_s": tm["qhull_tessellation"] + tm["centerlines"],
+            "vmtk_branch_split_s": tm["branch_extractor"],
+            "vmtk_axis_max_pct": max(e[0] for e in errs), "vmtk_axis_mean_pct": float(np.mean([e[1] for e in errs]))}
+
+
+def bench_tree(n_target, repeat, vmtk_python=None):
+    import igl
+
+    from vesselgp.io import write_mesh
+    from vesselgp.synthetic import synthetic_tree
+    from vesselgp.tree import fit_vessel_tree
+
+    t = synthetic_tree(levels=2, target_vertices=n_target)
+    row = {"vertices": len(t.V), "tips": len(t.truth.tips)}
+    fit_vessel_tree(t.V, t.F)  # warm-up: lazy imports
+    row["fit_vessel_tree_s"], tree = timeit(lambda: fit_vessel_tree(t.V, t.F), repeat)
+    row["cotmatrix_s"], _ = timeit(lambda: igl.cotmatrix(t.V, t.F), max(repeat, 5))
+    row["tree_over_cotmatrix"] = row["fit_vessel_tree_s"] / row["cotmatrix_s"]
+    errs = [_errors(t.truth, p.dense_points) for p in tree.paths]
+    row["axis_max_pct"] = max(e[0] for e in errs)
+    row["axis_mean_pct"] = float(np.mean([e[1] for e in errs]))
+    row["branches"], row["paths"] = len(tree.branches), len(tree.paths)
+    if vmtk_python is not None and PEER.exists():
+        with tempfile.TemporaryDirectory(prefix="vesselgp-vmtk-") as tmp:
+            stl = os.path.join(tmp, "tree.stl")
+            write_mesh(stl, t.V, t.F)
+            row.update(_vmtk(vmtk_python, stl, t.truth, tmp))
+        row["vmtk_over_tree"] = row["vmtk_centerline_s"] / row["fit_vessel_tree_s"]
+    return row
+
+
+def tree_targets(rows):
+    """Issue #13 targets: <= 0.5 s and <= 1/10 of VMTK's centre lines for the ~27k 4-tip tree; accuracy."""
+    out = []
+    r = min(rows, key=lambda x: abs(x["vertices"] - 27_000)) if rows else None
+    if r is None or abs(r["vertices"] - 27_000) > 0.35 * 27_000:
+        return out
+    out.append({"target": "fit_vessel_tree, ~27k 4-tip tree", "value": r["fit_vessel_tree_s"], "limit": 0.5,
+                "unit": "s", "vertices": r["vertices"]})
+    if "vmtk_centerline_s" in r:
+        out.append({"target": "fit_vessel_tree / VMTK centre lines (qhull), ~27k tree",
+                    "value": r["fit_vessel_tree_s"] / r["vmtk_centerline_s"], "limit": 0.1, "unit": "x",
+                    "vertices": r["vertices"]})
+    out.append({"target": "worst path-axis error, ~27k tree", "value": r["axis_max_pct"], "limit": 5.0,
+                "unit": "% r", "vertices": r["vertices"]})
+    out.append({"target": "mean path-axis error, ~27k tree", "value": r["axis_mean_pct"], "limit": 1.0,
+                "unit": "% r", "vertices": r["vertices"]})
+    for t in out:
+        t["status"] = "PASS" if t["value"] <= t["limit"] else "MISS"
+    return out
+
+
+def tree_markdown(rows):
+    def f(x, nd=3):
+        return "-" if x is None else f"{x:.{nd}f}"
+
+    L = ["Vessel trees: synthetic_tree(levels=2, target_vertices=n) (4 tips, marching cubes, root cut open). "
+         "Times in s (median); VMTK 1.5.2 with qhull in its own venv, seeded at the true end centres; "
+         "errors in % of the true radius away from junctions (2 r) and tips (1.5 r).", "",
+         "| vertices | fit_vessel_tree | igl.cotmatrix | tree / cotmatrix | axis max / mean (%) "
+         "| VMTK centre lines | VMTK branch split | VMTK axis max / mean (%) | VMTK lines / our tree |",
+         "|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        vm = "vmtk_centerline_s" in r
+        L.append(f"| {r['vertices']:,} | {f(r['fit_vessel_tree_s'])} | {f(r['cotmatrix_s'], 4)} "
+                 f"| {f(r['tree_over_cotmatrix'], 0)} | {f(r['axis_max_pct'], 2)} / {f(r['axis_mean_pct'], 3)} "
+                 f"| {f(r.get('vmtk_centerline_s'))} | {f(r.get('vmtk_branch_split_s'))} "
+                 f"| {(f(r['vmtk_axis_max_pct'], 2) + ' / ' + f(r['vmtk_axis_mean_pct'], 3)) if vm else '-'} "
+                 f"| {f(r.get('vmtk_over_tree'), 1)} |")
+    return "\n".join(L)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--sizes", default="27k,50k,200k")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--vmtk", help="python of the VMTK peer venv (default /tmp/peer-vmtk/bin/python if present)")
+    ap.add_argument("--no-vmtk", action="store_true")
+    ap.add_argument("--json", default=str(REPO / "bench-results" / "bench_tree.json"))
+    args = ap.parse_args(argv)
+    import logging
+
+    logging.basicConfig(level=logging.ERROR)
+    vm = None if args.no_vmtk else (Path(args.vmtk) if args.vmtk else (DEFAULT_VMTK if DEFAULT_VMTK.exists() else None))
+    rows = []
+    for tok in args.sizes.split(","):
+        n = int(float(tok[:-1]) * 1000) if tok.lower().endswith("k") else int(tok)
+        print(f"tree ~{tok} ...", flush=True)
+        rows.append(bench_tree(n, args.repeat, vm if n <= 30_000 else None))
+        print("   ", {k: (round(v, 4) if isinstance(v, float) else v) for k, v in rows[-1].items()}, flush=True)
+    print()
+    print(tree_markdown(rows))
+    targets = tree_targets(rows)
+    print()
+    for t in targets:
+        print(f"| {t['target']} | {t['vertices']:,} | {t['value']:.3g} {t['unit']} | <= {t['limit']:g} {t['unit']} "
+              f"| {t['status']} |")
+    out = Path(args.json)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps({"rows": rows, "targets": targets}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
