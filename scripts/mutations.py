@@ -104,6 +104,12 @@ MUTATIONS = {
         "    nearest = np.zeros(len(V), np.int64)",
         ["tests/test_branches.py", "tests/test_tree.py"],
     ),
+    "geodesic_default_heat_time": (
+        "vesselgp/mesh/geodesic.py",
+        "        self.t = max(h * h, bbox_diagonal(V) ** 2 / (4.0 * tol.GEODESIC_HEAT_DECAY))",
+        "        self.t = h * h",
+        ["tests/test_tree.py"],
+    ),
 }
 
 

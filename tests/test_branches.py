@@ -83,3 +83,4 @@ def test_needs_a_tree():
     ves = vesselgp.synthetic.synthetic_vessel("arc", n_around=16, remesh=False)
     with pytest.raises(vesselgp.EndsError, match="at least three ends"):
         branch_decomposition(ves.V, ves.F, vesselgp.vessel_ends(ves.V, ves.F))
+

@@ -5,7 +5,8 @@ The first stage of a tree fit (issue #13): from the ends of a branching mesh
 splits the surface into branches, without fitting any axis.
 
 * **Distances.** Heat-method geodesic distances (libigl ``heat_geodesics``,
-  one factorisation) from every end's vertices.
+  one factorisation, :class:`vesselgp.mesh.geodesic.GeodesicDistances`) from
+  every end's vertices.
 * **Topology.** For tips ``a`` and ``b``, the length of the path they share
   from the root is the Gromov product
   ``g(a, b) = (d(root, a) + d(root, b) - d(a, b)) / 2``; on a tree it is the
@@ -25,12 +26,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import igl
 import numpy as np
 
 from . import tolerances as tol
 from ._validate import as_mesh
 from .errors import EndsError
+from .mesh.geodesic import GeodesicDistances
 
 __all__ = ["Branching", "branch_decomposition"]
 
@@ -132,9 +133,8 @@ def branch_decomposition(V, F, ends, root=None):
     root = int(np.argmax([e.radius for e in ends])) if root is None else int(root)
     if not 0 <= root < len(ends):
         raise EndsError(f"root {root} is not an end index; use 0 to {len(ends) - 1} (see vesselgp.vessel_ends)")
-    data = igl.HeatGeodesicsData()
-    igl.heat_geodesics_precompute(V, F, data)
-    dist = [igl.heat_geodesics_solve(data, np.asarray(e.vertices, np.int64)) for e in ends]
+    geo = GeodesicDistances(V, F)
+    dist = [geo(e.vertices) for e in ends]
     tips = [j for j in range(len(ends)) if j != root]
     to_tip = {j: float(np.mean(dist[root][ends[j].vertices])) for j in tips}
     share = {(a, b): 0.5 * (to_tip[a] + to_tip[b] - float(np.mean(dist[a][ends[b].vertices])))

@@ -47,6 +47,7 @@ from .curves import chord_length, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError
 from .inside import check_axis_inside
 from .mesh import mesh_scale, mesh_topology, select_ends, vessel_ends
+from .mesh.geodesic import GeodesicDistances
 
 log = logging.getLogger(__name__)
 
@@ -209,10 +210,8 @@ def _path_mask(V, F, e0, e1, rscale):
     Used when the mesh has other ends (branches): vertices deeper than about a
     radius into a side branch have d0 + d1 well above the shortest d0 + d1.
     """
-    data = igl.HeatGeodesicsData()
-    igl.heat_geodesics_precompute(V, F, data)
-    d0 = igl.heat_geodesics_solve(data, np.asarray(e0.vertices, np.int64))
-    d1 = igl.heat_geodesics_solve(data, np.asarray(e1.vertices, np.int64))
+    geo = GeodesicDistances(V, F)
+    d0, d1 = geo(e0.vertices), geo(e1.vertices)
     ex = d0 + d1
     ex -= np.min(ex)
     return ex <= 2.0 * rscale
@@ -496,7 +495,7 @@ class _Iteration:
     count: int
     converged: bool
     rejected: np.ndarray | None = None
-    step: float = np.inf
+    inside: np.ndarray | None = None
 
 
 def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
@@ -505,18 +504,16 @@ def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
     K = len(nodes)
     axis = Axis(nodes, initial_normal)
     s_raw = axis.project(Vs, it.s, window)
-    inside = (s_raw > 0) & (s_raw < 1) & ~ends_s
+    frozen = it.rejected is not None
+    # once the outlier set is fixed, so is the set of vertices within the axis's range: a vertex
+    # crossing an unpinned end would otherwise switch on and off and the fixed point cycle
+    inside = it.inside if frozen else (s_raw > 0) & (s_raw < 1) & ~ends_s
     s = np.clip(s_raw, 0, 1)
     local, jac = local_coords(axis, Vs, s)
-    frozen = it.rejected is not None
     w = _robust_weights(s, local, jac, areas, it.radii, inside, it.rejected)
     _, fr_nodes = axis.at(np.linspace(0, 1, K))
     corr = circle_fit_correction(fr_nodes, nodes, s, local, w, lam, rscale)
     step = float(np.abs(corr).max())
-    if frozen and step >= tol.GC_DAMP_RATIO * it.step:
-        # with the outlier set fixed the map is smooth: a step that does not shrink is a
-        # period-two oscillation of a node with little data (near a cut end); halve it
-        corr = 0.5 * corr
     nodes = nodes + corr
     radii = _radius_fit(s, np.hypot(local[:, 1], local[:, 2]), w, K, mu)
     # parameters on the corrected axis, for the next projection's start
@@ -525,11 +522,11 @@ def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
     log.debug("GC iteration %d: axis moved %.3g (radius %.3g)", it.count + 1, step, rscale)
     # robust reweighting until the axis has nearly settled, then a fixed outlier set (IRLS):
     # vertices near the outlier threshold would otherwise toggle and the fixed point drift
-    rejected = it.rejected
+    rejected, kept = it.rejected, it.inside
     if not frozen and it.radii is not None and step < tol.GC_REWEIGHT_UNTIL * rscale:
-        rejected = (w == 0) & inside & (jac > tol.GC_MIN_STRETCH)
+        rejected, kept = (w == 0) & inside & (jac > tol.GC_MIN_STRETCH), inside
     return _Iteration(resample_arclength(nodes, K), s_next, radii, it.count + 1,
-                      step < tol.GC_CONVERGENCE * rscale, rejected, step)
+                      step < tol.GC_CONVERGENCE * rscale, rejected, kept)
 
 
 def cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids):

@@ -86,9 +86,6 @@ GC_COARSE_CELL_RADII = 0.3
 #: The fit iterates on at most about this many vertices (evenly thinned); the final
 #: parameterisation uses every vertex.
 GC_MAX_FIT_VERTICES = 60000
-#: Once the outlier set is fixed, an axis step at least this fraction of the previous one is
-#: halved (damps the period-two oscillation of a node with little data, near a cut end).
-GC_DAMP_RATIO = 0.9
 #: Newton steps refining each vertex's closest-point parameter on the axis.
 GC_NEWTON_STEPS = 3
 #: Dense samples of the axis per node spacing, used to project vertices onto the axis.
@@ -386,6 +383,11 @@ ENDS_TIP_DOME_FROM = 0.25
 ENDS_TIP_DOME_TO = 0.85
 #: Rounded tips: a maximum closer than this many radii to a tip's centre is on that tip.
 ENDS_TIP_SEPARATION = 1.5
+
+# --- geodesic distances (vesselgp.mesh.geodesic) --------------------------------
+#: The heat time is at least diag^2 / (4 * this): across the whole mesh the heat kernel
+#: stays above exp(-this), far from underflow (libigl's default time underflows on fine meshes).
+GEODESIC_HEAT_DECAY = 300.0
 
 # --- branch decomposition of trees (vesselgp.branches) -----------------------
 #: A vertex lies on the path from the root to a tip when its geodesic excess

@@ -1,0 +1,50 @@
+"""Geodesic distances on a mesh: the heat method (Crane et al. 2013, libigl ``heat_geodesics``).
+
+One factorisation serves every source set (:class:`GeodesicDistances`), as libigl's
+precompute / solve split. The heat time is the larger of libigl's default (the mean
+edge length squared) and the time at which heat from a source still reaches the far
+side of the mesh above ``exp(-tolerances.GEODESIC_HEAT_DECAY)``: with the default
+alone, on a fine mesh of a long vessel the heat underflows a few dozen edges from the
+source and the distances beyond are wrong (the Gromov product of two tips of a 200k
+vertex tree came out 13 % short).
+"""
+from __future__ import annotations
+
+import igl
+import numpy as np
+
+from .. import tolerances as tol
+from ._ends_format import bbox_diagonal
+
+__all__ = ["GeodesicDistances"]
+
+
+class GeodesicDistances:
+    """Heat-method geodesic distances from vertex sets, with the factorisation kept.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+        Faces with a well-defined area (zero-area faces have no cotangent weights).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from vesselgp.synthetic import synthetic_vessel
+    >>> ves = synthetic_vessel("straight", radius=1.0, n_around=24, remesh=False)
+    >>> geo = GeodesicDistances(ves.V, ves.F)
+    >>> d = geo(np.flatnonzero(ves.V[:, 2] == ves.V[:, 2].min()))
+    >>> bool(abs(d.max() - np.ptp(ves.V[:, 2])) < 0.05 * np.ptp(ves.V[:, 2]))
+    True
+    """
+
+    def __init__(self, V, F):
+        h = float(igl.avg_edge_length(V, F))
+        self.t = max(h * h, bbox_diagonal(V) ** 2 / (4.0 * tol.GEODESIC_HEAT_DECAY))
+        self._data = igl.HeatGeodesicsData()
+        igl.heat_geodesics_precompute(V, F, self.t, self._data)
+
+    def __call__(self, sources):
+        """Distance of every vertex from the nearest of ``sources`` (vertex ids), (n,) float64."""
+        return igl.heat_geodesics_solve(self._data, np.asarray(sources, np.int64))
