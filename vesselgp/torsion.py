@@ -137,7 +137,9 @@ class TorsionMeter:
     F : (m, 3) int64
         Triangles (shared by rest and deformed meshes).
     rest : GeneralizedCylinder, optional
-        Fitted on ``V_rest``; fitted here when omitted.
+        Fitted on ``V_rest``; fitted here when omitted. A path or branch of
+        :func:`vesselgp.fit_vessel_tree` measures the twist of its own vertices
+        (the others, with NaN parameters, are left out).
     ends : optional
         Passed to :func:`vesselgp.fit_generalized_cylinder` when ``rest`` is fitted here.
     smoothing : float, optional
@@ -179,9 +181,18 @@ class TorsionMeter:
         K = len(rest.s)
         self.K = K
         self.n_bins = tol.TORSION_BINS_PER_NODE * K
-        self._sub = thinned(self.n, tol.TORSION_RECOVERY_VERTICES)  # bias correction on a thinned subset
-        self._mean = thinned(self.n, tol.TORSION_MEAN_VERTICES)  # Eq. 7 means on a thinned subset
-        self.s0 = rest.vertex_s
+        # a tree's branch or path parameterises only its own vertices (NaN elsewhere): those are left out
+        on = np.isfinite(rest.vertex_s)
+        if not on.any():
+            raise MismatchError("rest generalized cylinder parameterises no vertex; fit it on V_rest")
+        if on.all():
+            self._sub = thinned(self.n, tol.TORSION_RECOVERY_VERTICES)  # bias correction on a thinned subset
+            self._mean = thinned(self.n, tol.TORSION_MEAN_VERTICES)  # Eq. 7 means on a thinned subset
+        else:
+            ids = np.flatnonzero(on)
+            self._sub = ids[thinned(len(ids), tol.TORSION_RECOVERY_VERTICES)]
+            self._mean = ids[thinned(len(ids), tol.TORSION_MEAN_VERTICES)]
+        self.s0 = np.where(on, rest.vertex_s, 0.0)  # off the cylinder: no area, no weight in Eq. 6
         self.w = rest.vertex_weight
         self.area = rest.vertex_area
         self.rscale = rest.mean_radius
@@ -321,7 +332,8 @@ def measure_torsion(V_rest, V_deformed, F, rest=None, *, ends=None, smoothing=No
     F : (m, 3) int64
         Triangles shared by both.
     rest : GeneralizedCylinder, optional
-        Fitted on ``V_rest`` (fitted when omitted).
+        Fitted on ``V_rest`` (fitted when omitted); a path or branch of
+        :func:`vesselgp.fit_vessel_tree` measures its own vertices only.
     ends : optional
         Ends for the rest fit (see :func:`vesselgp.fit_generalized_cylinder`).
     smoothing : float, optional
