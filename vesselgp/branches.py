@@ -76,6 +76,20 @@ class Branching:
         return tuple(tuple(int(c) for c in np.flatnonzero(self.parent == b)) for b in range(len(self.parent)))
 
 
+def root_end(ends, root=None):
+    """The root end's index: ``root`` checked against the ends, or the widest end when None.
+
+    Raises
+    ------
+    EndsError
+        ``root`` is not an index into ``ends``.
+    """
+    root = int(np.argmax([e.radius for e in ends])) if root is None else int(root)
+    if not 0 <= root < len(ends):
+        raise EndsError(f"root {root} is not an end index; use 0 to {len(ends) - 1} (see vesselgp.vessel_ends)")
+    return root
+
+
 def _agglomerate(tips, share):
     """Rooted binary tree of the tips, merging the pair of clusters with the largest mean shared length.
 
@@ -130,9 +144,7 @@ def branch_decomposition(V, F, ends, root=None):
     if len(ends) < 3:
         raise EndsError(f"a tree needs at least three ends, the mesh has {len(ends)}; "
                         "fit a single vessel with vesselgp.fit_generalized_cylinder")
-    root = int(np.argmax([e.radius for e in ends])) if root is None else int(root)
-    if not 0 <= root < len(ends):
-        raise EndsError(f"root {root} is not an end index; use 0 to {len(ends) - 1} (see vesselgp.vessel_ends)")
+    root = root_end(ends, root)
     geo = GeodesicDistances(V, F)
     dist = [geo(e.vertices) for e in ends]
     tips = [j for j in range(len(ends)) if j != root]

@@ -193,11 +193,11 @@ def _robust_weights(s, local, jac, area, radii, inside, rejected=None):
 # ----------------------------------------------------------------------------- initialisation
 
 
-def _resolve_ends(V, F, ends, topo):
+def _resolve_ends(V, F, ends, topo, mesh_ends=None):
     """The two ends to fit between, their indices, and how many ends the mesh has."""
     if ends is not None and len(ends) == 2 and all(hasattr(e, "center") for e in ends):
         return ends[0], ends[1], (-1, -1), 2
-    all_ends = vessel_ends(V, F, topology=topo)
+    all_ends = vessel_ends(V, F, topology=topo) if mesh_ends is None else tuple(mesh_ends)
     e0, e1 = select_ends(all_ends, ends)
     i0 = next(i for i, e in enumerate(all_ends) if e is e0)
     i1 = next(i for i, e in enumerate(all_ends) if e is e1)
@@ -205,7 +205,7 @@ def _resolve_ends(V, F, ends, topo):
 
 
 def _path_mask(V, F, e0, e1, rscale):
-    """Vertices on the path between the two ends (excess geodesic length <= 2 radii).
+    """Vertices on the path between the two ends (excess geodesic length <= ``BRANCH_PATH_RADII`` radii).
 
     Used when the mesh has other ends (branches): vertices deeper than about a
     radius into a side branch have d0 + d1 well above the shortest d0 + d1.
@@ -214,7 +214,7 @@ def _path_mask(V, F, e0, e1, rscale):
     d0, d1 = geo(e0.vertices), geo(e1.vertices)
     ex = d0 + d1
     ex -= np.min(ex)
-    return ex <= 2.0 * rscale
+    return ex <= tol.BRANCH_PATH_RADII * rscale
 
 
 def _harmonic_between(V, F, b, bc, rscale):
@@ -339,6 +339,7 @@ def fit_generalized_cylinder(
     mu=None,
     max_iter=None,
     initial_normal=None,
+    mesh_ends=None,
 ):
     """Fit a generalized cylinder (medial axis, radius, RMF) to a vessel mesh.
 
@@ -378,6 +379,9 @@ def fit_generalized_cylinder(
     initial_normal : (3,) float64, optional
         Direction of U at ``s = 0``. Default: towards the way the axis bends
         (rigid-covariant); a fixed coordinate direction for a straight axis.
+    mesh_ends : sequence of VesselEnd, optional
+        Every end of the mesh, when already found (:func:`vesselgp.vessel_ends` of
+        this mesh); ``ends`` indexes into them. Default: found here.
 
     Returns
     -------
@@ -408,7 +412,7 @@ def fit_generalized_cylinder(
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
     _check_options(n_nodes, lam, mu, max_iter)
     topo, Fg = checked_mesh(V, F)
-    e0, e1, end_ids, n_ends = _resolve_ends(V, F, ends, topo)
+    e0, e1, end_ids, n_ends = _resolve_ends(V, F, ends, topo, mesh_ends)
     if initial_normal is not None:
         initial_normal = as_vector(initial_normal, "initial_normal")
     _log_scale(V, F, e0, e1)

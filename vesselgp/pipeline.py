@@ -314,12 +314,11 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
         The fit and the contents of ``axis.json`` (``tree.json`` for a tree).
     """
     V, F, uinfo = read_mesh_in(mesh, units, scale)
-    if ends is None:
-        found = vessel_ends(V, F)
-        if len(found) > 2:
-            return run_fit_tree(V, F, mesh, out, found, uinfo, axis_format=axis_format, render=render)
+    found = vessel_ends(V, F) if ends is None else None  # found once: the fit or the tree takes them
+    if found is not None and len(found) > 2:
+        return run_fit_tree(V, F, mesh, out, found, uinfo, axis_format=axis_format, render=render)
     t0 = time.perf_counter()
-    gc = fit_generalized_cylinder(V, F, ends=ends, n_nodes=n_nodes)
+    gc = fit_generalized_cylinder(V, F, ends=ends, n_nodes=n_nodes, mesh_ends=found)
     dt = time.perf_counter() - t0
     d = {**gc_to_dict(gc), **uinfo}
     d.update(bbox_diagonal=float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), input=str(mesh), time_s=dt)

@@ -390,8 +390,8 @@ ENDS_TIP_SEPARATION = 1.5
 GEODESIC_HEAT_DECAY = 300.0
 
 # --- branch decomposition of trees (vesselgp.branches) -----------------------
-#: A vertex lies on the path from the root to a tip when its geodesic excess
-#: d(root, v) + d(tip, v) - d(root, tip) is at most this many tip radii (the fit's path mask).
+#: A single-path fit on a branching mesh uses the vertices whose geodesic excess
+#: d(e0, v) + d(e1, v) - min is at most this many end radii (the fit's path mask).
 BRANCH_PATH_RADII = 2.0
 
 

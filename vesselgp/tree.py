@@ -40,7 +40,7 @@ from scipy.spatial import cKDTree
 from . import tolerances as tol
 from ._validate import as_mesh
 from .axis import Axis
-from .branches import branch_decomposition
+from .branches import branch_decomposition, root_end
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
 from .fit import GeneralizedCylinder, checked_mesh, cylinder_from_axis, fit_generalized_cylinder, fixed_point
@@ -366,11 +366,10 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     if len(ends) < 2:
         raise EndsError(f"a vessel tree needs at least two ends, the mesh has {len(ends)} "
                         "(see vesselgp.vessel_ends)")
-    root = int(np.argmax([e.radius for e in ends])) if root is None else int(root)
-    if not 0 <= root < len(ends):
-        raise EndsError(f"root {root} is not an end index; use 0 to {len(ends) - 1} (see vesselgp.vessel_ends)")
+    root = root_end(ends, root)
     if len(ends) == 2:
-        gc = fit_generalized_cylinder(V, F, ends=(root, 1 - root), lam=lam, mu=mu, max_iter=max_iter)
+        gc = fit_generalized_cylinder(V, F, ends=(root, 1 - root), lam=lam, mu=mu, max_iter=max_iter,
+                                      mesh_ends=ends)
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                           vertex_branch=np.zeros(len(V), np.int64))
