@@ -110,6 +110,30 @@ MUTATIONS = {
         "        self.t = h * h",
         ["tests/test_tree.py"],
     ),
+    "join_anchor_sign": (
+        "vesselgp/join.py",
+        "rotate(target.normal, target.tangent, -self.anchor_offset)",
+        "rotate(target.normal, target.tangent, self.anchor_offset)",
+        ["tests/test_join_vessels.py"],
+    ),
+    "join_stretch_from_rest_axis": (
+        "vesselgp/deform.py",
+        "        P = self.axis_points[self.deformer.nodes]\n        return float(",
+        "        P = self.deformer.gc.dense_points[self.deformer.nodes]\n        return float(",
+        ["tests/test_join_vessels.py"],
+    ),
+    "join_target_tangent_sign": (
+        "vesselgp/join_vessels.py",
+        "        tangent = -np.asarray(e_other.direction, float)",
+        "        tangent = np.asarray(e_other.direction, float)",
+        ["tests/test_join_vessels.py"],
+    ),
+    "open_dome_plane_shifted": (
+        "vesselgp/mesh/open_end.py",
+        "    beyond = (D @ d > 0.0)",
+        "    beyond = (D @ d > -0.5 * r)",
+        ["tests/test_join_vessels.py"],
+    ),
 }
 
 

@@ -463,6 +463,9 @@ class _Quadratic(vesselgp.JoinProblem):
     def _evaluate(self, angle):
         return None, None
 
+    def result_fields(self, X):
+        return {}
+
 
 def test_nlopt_success_on_the_stand_in():
     res = vesselgp.minimize_torsion(_Quadratic())

@@ -18,6 +18,7 @@ from .io import read_mesh, write_mesh  # noqa: F401
 from .mesh import clean_mesh, vessel_ends, mesh_scale, stitch, CleanReport, VesselEnd, MeshScale, MeshTopology  # noqa: F401
 from .deform import Frame, deform_vessel  # noqa: F401
 from .join import JoinProblem, JoinResult, minimize_torsion  # noqa: F401
+from .join_vessels import VesselJoin, join_vessels  # noqa: F401
 from .fit import GeneralizedCylinder, fit_generalized_cylinder  # noqa: F401
 from .tree import VesselTree, fit_vessel_tree  # noqa: F401
 from .torsion import TorsionMeter, TorsionProfile, measure_torsion  # noqa: F401

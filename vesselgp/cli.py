@@ -59,6 +59,7 @@ run 'vesselgp <command> --help' for the options of a command.""",
     "join": """examples:
   vesselgp generate --paper-cases -o cases
   vesselgp join cases/case1/vessel.ply --case cases/case1/case.json -o join1
+  vesselgp join coronary.stl --end 1 --onto artery.stl --other-end 0 -o j2
   vesselgp join v.ply --fixed 0-99 --moving @moving.txt --target-origin 40 2 0 \\
       --target-tangent 1 0 0 --target-normal 0 0 1 -o join""",
     "clean": """examples:
@@ -187,13 +188,44 @@ def cmd_torsion(args):
     return 0
 
 
+def _hold(text):
+    """``--hold``: an arc-length fraction ('0.2') or vertex ids ('0-99', @file)."""
+    text = str(text).strip()
+    if "." in text and not text.startswith("@"):
+        try:
+            return float(text)
+        except ValueError:
+            raise VesselError(f"--hold: {text!r} is neither an arc-length fraction like 0.2 nor vertex ids") from None
+    return _ids(text, "hold")
+
+
+def _join_summary(args, r, inp, out):
+    r = {"command": "join", "vessel": str(args.vessel), **inp["units"], **r}
+    write_json(out("result.json"), r)
+    out.files.extend(str(out.dir / f) for f in r["files"].values())
+    summary = {k: r[k] for k in ("optimum_angle_deg", "roll_deg", "energy", "total_twist_deg", "n_evals", "status",
+                                 "grid_scan", "axial_stretch", "max_edge_stretch", "setup_time_s", "time_s")}
+    summary.update(command="join", large_torsion=r["large_torsion"], **inp["units"], files=out.files)
+    text = (pipeline.summary_table([r]) + f"\nroll beyond the twist-free placement {r['roll_deg']:+.2f} deg, "
+            f"axial stretch {r['axial_stretch']:.3f}, largest edge stretch {r['max_edge_stretch']:.3f}\n"
+            "angle 0: the moving anchor lies on the target normal (result.json: angle_reference)\n"
+            + _files_text(out))
+    _emit(args, summary, text)
+    return 0
+
+
 def cmd_join(args):
+    if args.onto is not None:
+        return _cmd_join_vessels(args)
+    if args.end is not None:
+        raise VesselError("--end needs --onto OTHER and --other-end J (the end index of the other vessel)")
     if args.case is None:
         need = {"--fixed": args.fixed, "--moving": args.moving, "--target-origin": args.target_origin,
                 "--target-tangent": args.target_tangent, "--target-normal": args.target_normal}
         missing = [k for k, v in need.items() if v is None]
         if missing:
-            raise VesselError(f"give --case or all of {', '.join(need)} (missing {', '.join(missing)})")
+            raise VesselError(f"give --case, or --end I --onto OTHER --other-end J, or all of {', '.join(need)} "
+                              f"(missing {', '.join(missing)})")
     inp = pipeline.join_inputs(
         args.vessel, case=args.case,
         fixed=None if args.fixed is None else _ids(args.fixed, "fixed"),
@@ -204,18 +236,38 @@ def cmd_join(args):
         units=args.units, scale=args.scale)
     out = OutputFolder(args.output, inp["inputs"], args.overwrite)
     out.check(pipeline.JOIN_FILES)
+    mn = inp["moving_normal"] if args.moving_normal is None else args.moving_normal
     r = pipeline.run_join(out.dir, inp["V"], inp["F"], inp["fixed"], inp["moving"], inp["target"],
                           other=inp["other"], name=Path(args.vessel).stem, n_curve=args.n_curve,
                           curve_range_deg=args.range, large_deg=args.large, method=args.method,
-                          progress=_progress(args), render=not args.no_png)
-    r = {"command": "join", "vessel": str(args.vessel), **inp["units"], **r}
-    write_json(out("result.json"), r)
-    out.files.extend(str(out.dir / f) for f in r["files"].values())
-    summary = {k: r[k] for k in ("optimum_angle_deg", "energy", "total_twist_deg", "n_evals", "status",
-                                 "grid_scan", "setup_time_s", "time_s")}
-    summary.update(command="join", large_torsion=r["large_torsion"], **inp["units"], files=out.files)
-    _emit(args, summary, pipeline.summary_table([r]) + "\n" + _files_text(out))
-    return 0
+                          progress=_progress(args), render=not args.no_png, moving_normal=mn)
+    return _join_summary(args, r, inp, out)
+
+
+def _cmd_join_vessels(args):
+    """``join VESSEL --end I --onto OTHER --other-end J``: two vessels by end index."""
+    clash = [k for k, v in (("--case", args.case), ("--fixed", args.fixed), ("--moving", args.moving),
+                            ("--target-origin", args.target_origin), ("--target-tangent", args.target_tangent),
+                            ("--other", args.other)) if v is not None]
+    if clash:
+        raise VesselError(f"--onto finds the held part, the moving ring and the target itself; drop {', '.join(clash)}")
+    if args.end is None or args.other_end is None:
+        raise VesselError("--onto needs --end I and --other-end J: end indices as 'vesselgp ends' lists them")
+    try:
+        other_end = int(args.other_end)
+    except ValueError:
+        raise VesselError(f"--other-end with --onto is an end index like 0, got {args.other_end!r}") from None
+    inp = pipeline.join_vessels_inputs(
+        args.vessel, args.onto, args.end, other_end, hold=None if args.hold is None else _hold(args.hold),
+        method=args.method, max_stretch=args.max_stretch, moving_normal=args.moving_normal,
+        target_normal=args.target_normal, units=args.units, scale=args.scale)
+    out = OutputFolder(args.output, inp["inputs"], args.overwrite)
+    out.check(pipeline.JOIN_FILES)
+    r = pipeline.run_join_vessels(out.dir, inp["join"], name=Path(args.vessel).stem, n_curve=args.n_curve,
+                                  curve_range_deg=args.range, large_deg=args.large, progress=_progress(args),
+                                  render=not args.no_png)
+    r["onto"] = str(args.onto)
+    return _join_summary(args, r, inp, out)
 
 
 def cmd_clean(args):
@@ -356,9 +408,24 @@ def _add_join(sub, fmt):
     p.add_argument("--target-tangent", type=float, nargs=3, metavar=("X", "Y", "Z"),
                    help="axis direction at the joined end, out of the vessel")
     p.add_argument("--target-normal", type=float, nargs=3, metavar=("X", "Y", "Z"),
-                   help="where the end's rest normal U goes at rotation 0 (the anchor)")
-    p.add_argument("--other", help="mesh of the vessel joined to (drawn grey; stitched with --other-end)")
-    p.add_argument("--other-end", help="vertex ids of the other vessel's end ring, for the stitched mesh")
+                   help="where the moving anchor goes at rotation 0 (with --onto: default the world axis most "
+                        "across the other end)")
+    p.add_argument("--end", type=int, metavar="I",
+                   help="index of the moving end (as 'vesselgp ends' lists them), with --onto and --other-end")
+    p.add_argument("--onto", metavar="OTHER",
+                   help="mesh of the vessel joined to: the held part, the moving ring and the target are found "
+                        "from the end indices; caps are opened and the two are stitched into one mesh")
+    p.add_argument("--other-end", metavar="J",
+                   help="with --onto: the end index of the other vessel; with --other: vertex ids of its end "
+                        "ring, for the stitched mesh")
+    p.add_argument("--hold", help="with --onto: what stays in place, an arc-length fraction next to the other "
+                                  f"end (default {tol.JOIN_HOLD_FRACTION}) or vertex ids ('0-99', @file)")
+    p.add_argument("--max-stretch", type=float, default=tol.JOIN_MAX_STRETCH,
+                   help="with --onto: refuse a target that stretches the free part more (default: %(default)s)")
+    p.add_argument("--moving-normal", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="anchor across the moving end that lands on the target normal at angle 0 (default with "
+                        "--onto: the world axis most across the end; otherwise the case's, or the fit's U)")
+    p.add_argument("--other", help="mesh of the vessel joined to (drawn in sand; stitched with --other-end ids)")
     p.add_argument("--n-curve", type=int, default=tol.DEMO_CURVE_POINTS,
                    help="points of the energy curve (default: %(default)s)")
     p.add_argument("--range", type=float, default=tol.DEMO_CURVE_RANGE_DEG,

@@ -340,6 +340,17 @@ class RodDeformer:
         self.free_s = sv[self.free]
         self.local = self.gc.vertex_local[self.free]
 
+    def edge_stretch(self, X):
+        """Largest deformed-over-rest edge length of deformed vertices ``X`` ((n, 3) float64)."""
+        if not hasattr(self, "_edges"):
+            E = np.unique(np.sort(np.concatenate([self.F[:, [0, 1]], self.F[:, [1, 2]], self.F[:, [2, 0]]]),
+                                  axis=1), axis=0)
+            ln = np.linalg.norm(self.V[E[:, 0]] - self.V[E[:, 1]], axis=1)
+            keep = ln > 0
+            self._edges, self._edge_rest = E[keep], ln[keep]
+        E = self._edges
+        return float(np.max(np.linalg.norm(X[E[:, 0]] - X[E[:, 1]], axis=1) / self._edge_rest))
+
     def _factorise(self, arap_iterations):
         """The target-free factorisations: libigl ARAP data or the bi-Laplacian's min_quad_with_fixed."""
         V, F, method = self.V, self.F, self.method
@@ -499,6 +510,38 @@ class RodPlacement:
     def alpha_end(self, angle):
         """Material angle ``alpha(s_e)`` (radians, about the GC tangent) the rod imposes at ``angle``."""
         return self.alpha0 + self.deformer.sign * float(angle)
+
+    @property
+    def axial_stretch(self):
+        """Arc length of the deformed free axis over its rest length (1 = inextensible; angle-free)."""
+        P = self.axis_points[self.deformer.nodes]
+        return float(np.linalg.norm(np.diff(P, axis=0), axis=1).sum() / self.deformer.free_length)
+
+    @property
+    def max_bend(self):
+        """Largest ``kappa(s) r(s)`` along the deformed free axis, and the ``s`` where it is.
+
+        ``kappa`` is the discrete curvature (turning angle over the mean length of
+        the two segments at a node) and ``r`` the rest radius there: above 1 the
+        inner wall of the bend would fold over itself.
+
+        Returns
+        -------
+        value : float
+        s : float
+        """
+        d = self.deformer
+        P = self.axis_points[d.nodes]
+        e = np.diff(P, axis=0)
+        ln = np.linalg.norm(e, axis=1)
+        if len(ln) < 2 or not np.all(ln > 0):
+            return 0.0, float(d.gc.dense_s[d.nodes[0]])
+        c = np.einsum("ij,ij->i", e[1:], e[:-1]) / (ln[1:] * ln[:-1])
+        kappa = np.arccos(np.clip(c, -1.0, 1.0)) / (0.5 * (ln[1:] + ln[:-1]))
+        s = d.gc.dense_s[d.nodes[1:-1]]
+        kr = kappa * d.gc.radius_at(s)
+        k = int(np.argmax(kr))
+        return float(kr[k]), float(s[k])
 
     @property
     def zero_twist_angle(self):

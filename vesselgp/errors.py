@@ -38,6 +38,10 @@ class FrameError(VesselError):
     """A frame, direction or curve is degenerate (zero tangent, parallel normal)."""
 
 
+class ImplausibleJoinError(VesselError):
+    """A join target the vessel cannot reach: too much axial stretch or too tight a bend."""
+
+
 class OptimizationError(VesselError):
     """The minimum-torsion search failed (NLopt error or non-finite energies)."""
 
@@ -64,6 +68,7 @@ __all__ = [
     "MismatchError",
     "FrameError",
     "OptimizationError",
+    "ImplausibleJoinError",
     "OptionError",
     "DecimationError",
     "TreeDependencyError",

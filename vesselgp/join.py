@@ -27,11 +27,12 @@ import nlopt
 import numpy as np
 
 from . import tolerances as tol
-from ._validate import as_mesh
+from ._validate import as_mesh, as_vector
 from .deform import Frame, RodDeformer, as_vertex_ids
 from .errors import EndsError, FrameError, MismatchError, OptimizationError
 from .fit import fit_generalized_cylinder
 from .mesh import stitch
+from .rotations import rotate, wrap_angle
 from .torsion import TorsionMeter, TorsionProfile
 
 log = logging.getLogger(__name__)
@@ -77,6 +78,32 @@ class JoinResult:
         True when the three probes did not give a convex parabola near the
         zero-twist angle and a 12-point scan over a full turn chose NLopt's
         start instead (the energy is then far from Fig. 4's quadratic shape).
+    zero_twist_angle : float
+        The rod's twist-free angle (:attr:`JoinProblem.zero_twist_angle`), radians.
+    roll : float
+        ``angle - zero_twist_angle`` wrapped to (-pi, pi]: how far the end is
+        rolled beyond the twist-free placement at the optimum.
+    axial_stretch : float
+        Deformed over rest length of the free axis (:attr:`RodPlacement.axial_stretch`).
+    max_bend : float
+        Largest curvature times radius of the deformed axis (:attr:`RodPlacement.max_bend`).
+    max_edge_stretch : float
+        Largest deformed-over-rest edge length at the optimum.
+    moving_normal, target_normal : (3,) float64
+        The anchors: angle 0 lands ``moving_normal`` (rest, at the moving end)
+        on ``target_normal`` (:class:`JoinProblem`).
+    joined_V : (N, 3) float64 or None
+        The optimum stitched to the other vessel (:func:`vesselgp.join_vessels`), else None.
+    joined_F : (M, 3) int64 or None
+    seam : (q,) int64 or None
+        Vertex ids, in ``joined_V``, of the moving end's ring where the two vessels meet.
+    F : (m, 3) int64
+        Faces of ``V`` (the problem's; for :func:`vesselgp.join_vessels`, of the moving vessel
+        with its joined end opened).
+    fixed, moving : (p,), (q,) int64
+        Held vertex ids and the joined end ring, in ``V``.
+    kept : (n,) int64 or None
+        For :func:`vesselgp.join_vessels`: the id in the input mesh of each row of ``V``.
     """
 
     angle: float
@@ -90,6 +117,20 @@ class JoinResult:
     n_evals: int = 0
     algorithm: str = "LN_BOBYQA"
     grid_scan: bool = False
+    zero_twist_angle: float = 0.0
+    roll: float = 0.0
+    axial_stretch: float = 1.0
+    max_bend: float = 0.0
+    max_edge_stretch: float = 1.0
+    moving_normal: np.ndarray | None = field(default=None, repr=False)
+    target_normal: np.ndarray | None = field(default=None, repr=False)
+    joined_V: np.ndarray | None = field(default=None, repr=False)
+    joined_F: np.ndarray | None = field(default=None, repr=False)
+    seam: np.ndarray | None = field(default=None, repr=False)
+    F: np.ndarray | None = field(default=None, repr=False)
+    fixed: np.ndarray | None = field(default=None, repr=False)
+    moving: np.ndarray | None = field(default=None, repr=False)
+    kept: np.ndarray | None = field(default=None, repr=False)
 
 
 class JoinProblem:
@@ -122,6 +163,12 @@ class JoinProblem:
     smoothing : float, optional
         Smoothing of the measured alpha (default: the meter's own, see
         :class:`vesselgp.TorsionMeter`).
+    moving_normal : (3,) float64, optional
+        The anchor at the moving end: a direction across the end (in rest
+        coordinates; its part along the end's axis is dropped). When given,
+        angle 0 lands it on ``target.normal``; when omitted, angle 0 lands the
+        fit's rest U of the end there (an internal reference). Either way a
+        positive angle turns the end right-handed about ``target.tangent``.
 
     Attributes
     ----------
@@ -130,8 +177,16 @@ class JoinProblem:
     meter : TorsionMeter
     gc : GeneralizedCylinder
     target : Frame
+        As given.
+    moving_normal : (3,) float64
+        The anchor at the moving end (unit, across its rest axis): the given
+        one, or the fit's U there.
+    anchor_offset : float
+        Angle (radians) from the fit's U to ``moving_normal`` about the end's
+        outward rest tangent.
     placement : RodPlacement
-        The per-target part of the deformation.
+        The per-target part of the deformation (its frame's normal is where the
+        fit's U lands at angle 0).
 
     Examples
     --------
@@ -145,7 +200,7 @@ class JoinProblem:
     """
 
     def __init__(self, V, F, fixed, moving, target, *, method="rod_arap", gc=None, ends=None,
-                 arap_iterations=None, stiffness="uniform", smoothing=None):
+                 arap_iterations=None, stiffness="uniform", smoothing=None, moving_normal=None):
         if not isinstance(target, Frame):
             raise FrameError("target must be a vesselgp.Frame(origin, tangent, normal)")
         V, F = as_mesh(V, F)
@@ -159,10 +214,10 @@ class JoinProblem:
         deformer = RodDeformer(V, F, fixed, moving, gc=gc, method=method,
                                arap_iterations=arap_iterations, stiffness=stiffness)
         meter = TorsionMeter(V, F, gc, smoothing=smoothing)
-        self._set(deformer, meter, target)
+        self._set(deformer, meter, target, moving_normal)
 
     @classmethod
-    def from_precomputed(cls, deformer, meter, target):
+    def from_precomputed(cls, deformer, meter, target, moving_normal=None):
         """A problem for ``target`` that reuses a deformer's and a meter's factorisations.
 
         Parameters
@@ -171,6 +226,8 @@ class JoinProblem:
         meter : TorsionMeter
             Built on the same rest mesh as ``deformer``.
         target : Frame
+        moving_normal : (3,) float64, optional
+            The anchor at the moving end (see :class:`JoinProblem`).
         """
         if not isinstance(target, Frame):
             raise FrameError("target must be a vesselgp.Frame(origin, tangent, normal)")
@@ -179,14 +236,27 @@ class JoinProblem:
         if meter.rest is not deformer.gc:
             raise MismatchError("the meter and the deformer must share one rest fit (TorsionMeter(V, F, deformer.gc))")
         self = cls.__new__(cls)
-        self._set(deformer, meter, target)
+        self._set(deformer, meter, target, moving_normal)
         return self
 
-    def _set(self, deformer, meter, target):
+    def _set(self, deformer, meter, target, moving_normal):
         self.target = target
         self.deformer, self.meter = deformer, meter
         self.V, self.F, self.gc = deformer.V, deformer.F, deformer.gc
-        self.placement = deformer.place(target)
+        t, u = deformer.end_tangent, deformer.end_normal
+        if moving_normal is None:
+            self.moving_normal, self.anchor_offset = u.copy(), 0.0
+        else:
+            m = as_vector(moving_normal, "moving_normal")
+            m = m - (m @ t) * t
+            if not np.linalg.norm(m) > tol.FRAME_ORTHONORMAL * max(1.0, float(np.linalg.norm(moving_normal))):
+                raise FrameError("moving_normal is parallel to the moving end's axis; give a direction across it")
+            self.moving_normal = m / np.linalg.norm(m)
+            self.anchor_offset = float(np.arctan2(np.cross(u, self.moving_normal) @ t, u @ self.moving_normal))
+        # Q maps (t, u) to (target.tangent, n(angle)), so it maps moving_normal = rot_t(u, phi) to rot(n, phi):
+        # the fit's U must land on the target normal turned back by phi
+        inner = Frame(target.origin, target.tangent, rotate(target.normal, target.tangent, -self.anchor_offset))
+        self.placement = deformer.place(inner)
         self._cache = {}
 
     @property
@@ -209,8 +279,8 @@ class JoinProblem:
         return self.placement.zero_twist_angle
 
     def retarget(self, target):
-        """A problem with another target sharing this one's fit, meter and factorisations."""
-        return JoinProblem.from_precomputed(self.deformer, self.meter, target)
+        """A problem with another target sharing this one's fit, meter, anchor and factorisations."""
+        return JoinProblem.from_precomputed(self.deformer, self.meter, target, self.moving_normal)
 
     def deform(self, angle):
         """Deformed vertices (n, 3) with the moving end on the target turned by ``angle`` (radians)."""
@@ -233,6 +303,17 @@ class JoinProblem:
     def energy(self, angle):
         """Torsion energy (Eq. 8) of the deformation at ``angle`` (radians)."""
         return float(self._evaluate(float(angle))[1].energy)
+
+    def result_fields(self, X):
+        """The :class:`JoinResult` fields that describe deformed vertices ``X`` of this problem.
+
+        ``axial_stretch``, ``max_bend``, ``max_edge_stretch``, the anchors and the
+        problem's ``F``, ``fixed`` and ``moving``.
+        """
+        pl = self.placement
+        return {"axial_stretch": pl.axial_stretch, "max_bend": pl.max_bend[0],
+                "max_edge_stretch": self.deformer.edge_stretch(X), "moving_normal": self.moving_normal,
+                "target_normal": self.target.normal, "F": self.F, "fixed": self.fixed, "moving": self.moving}
 
     def energy_curve(self, angles):
         """Energies at each of ``angles`` (radians): the paper's Fig. 4.
@@ -316,9 +397,11 @@ def minimize_torsion(problem, *, xtol=None, max_evals=None, algorithm="LN_BOBYQA
     name = _NLOPT_NAMES.get(status, str(status))
     log.info("minimize_torsion: angle %.4f deg, energy %.4g, %d evaluations, %s%s",
              np.degrees(best), E[k], len(A), name, " (after a grid scan)" if grid_scan else "")
+    zero = float(problem.zero_twist_angle)
     return JoinResult(angle=best, energy=float(E[k]), V=X, profile=prof, angles=A, energies=E,
                       status=status, status_name=name, n_evals=len(A), algorithm=str(algorithm),
-                      grid_scan=grid_scan)
+                      grid_scan=grid_scan, zero_twist_angle=zero, roll=float(wrap_angle(best - zero)),
+                      **problem.result_fields(X))
 
 
 class _EnergyLog:

@@ -36,8 +36,10 @@ from .tree import fit_vessel_tree
 from .io import (read_case, read_mesh, to_json, write_case, write_csv, write_json, write_mesh, write_polylines,
                  write_polyline)
 from .join import JoinProblem, minimize_torsion
+from .join_vessels import VesselJoin
 from .mesh import clean_mesh, format_point, mesh_scale, stitch, vessel_ends
 from .mesh.scale import UNIT_NAMES, units_factor
+from .rotations import wrap_angle
 from .synthetic import deform_synthetic, paper_case, synthetic_vessel
 from .torsion import TorsionMeter
 from .viz import plot_energy_curve, plot_torsion_profile, render_mesh, torsion_colors
@@ -55,10 +57,19 @@ REPORT_FIELDS = {
     "name": "case name",
     "n_vertices": "vertices of the deformed vessel",
     "n_faces": "faces of the deformed vessel",
-    "optimum_angle_deg": "rotation of the joined end with the least torsion (degrees; 0 = given anchor)",
+    "optimum_angle_deg": "rotation of the joined end with the least torsion (degrees in (-180, 180]; 0 = the anchor)",
     "energy": "torsion energy at the optimum (paper Eq. 8, radians^2 per unit normalised length)",
     "total_twist_deg": "alpha(1) - alpha(0) at the optimum (degrees, Eq. 7)",
+    "roll_deg": "optimum minus the zero-twist angle (degrees): the roll beyond the twist-free placement",
     "zero_twist_angle_deg": "the deformation's own zero-twist angle (degrees), the search's start",
+    "angle_reference": "what angle 0 and a positive angle mean (ANGLE_REFERENCE)",
+    "moving_normal": "the anchor across the moving end (rest) that lands on target_normal at angle 0",
+    "target_normal": "the anchor across the target end",
+    "target_origin": "where the moving end's centre goes",
+    "target_tangent": "the axis direction there, out of the moving vessel",
+    "axial_stretch": "deformed over rest length of the free part of the axis",
+    "max_bend": "largest curvature times radius of the deformed axis (above 1 the wall folds)",
+    "max_edge_stretch": "largest deformed over rest edge length at the optimum",
     "n_evals": "energy evaluations of the search (probes + NLopt)",
     "status": "NLopt result name",
     "grid_scan": "true when the search started from a full-turn grid scan (energy not convex near zero twist)",
@@ -495,13 +506,18 @@ def join_inputs(vessel, *, case=None, fixed=None, moving=None, target=None, othe
     -------
     dict
         ``V, F, fixed, moving, target, other`` (``(V2, F2, other_end)`` or None), ``inputs``
-        (every file read) and ``units`` (:func:`read_mesh_in`).
+        (every file read), ``units`` (:func:`read_mesh_in`) and ``moving_normal`` (the case's
+        anchor at the moving end, or None).
     """
     V, F, uinfo = read_mesh_in(vessel, units, scale)
     inputs = [vessel, case, other]
     case_other_end = None
+    moving_normal = None
     if case is not None:
-        fixed, moving, target, case_other_end, case_other = read_case(case, len(V))
+        c = read_case(case, len(V))
+        fixed, moving, target, case_other_end, case_other = (c[k] for k in ("fixed", "moving", "target",
+                                                                            "other_end", "other"))
+        moving_normal = c["moving_normal"]
         if other is None and case_other is not None:
             log.info("the vessel joined to is %s (named by %s)", case_other, case)
             other = case_other
@@ -516,22 +532,17 @@ def join_inputs(vessel, *, case=None, fixed=None, moving=None, target=None, othe
     if uinfo["to_mm"] != 1.0:
         target = replace(target, origin=np.asarray(target.origin) * uinfo["to_mm"])
     return {"V": V, "F": F, "fixed": fixed, "moving": moving, "target": target, "other": o, "inputs": inputs,
-            "units": uinfo}
+            "units": uinfo, "moving_normal": moving_normal}
 
 
-def _join_search(V, F, fixed, moving, target, method, ends, n_curve, curve_range_deg, progress, name):
-    """Fit, problem set-up, :func:`minimize_torsion` and the energy curve about the optimum (Fig. 4)."""
+def _join_search(V, F, fixed, moving, target, method, ends, moving_normal):
+    """Fit, problem set-up and :func:`minimize_torsion`; times of both."""
     t0 = time.perf_counter()
     gc = fit_generalized_cylinder(V, F, ends=ends)
-    problem = JoinProblem(V, F, fixed, moving, target, method=method, gc=gc)
+    problem = JoinProblem(V, F, fixed, moving, target, method=method, gc=gc, moving_normal=moving_normal)
     t1 = time.perf_counter()
     res = minimize_torsion(problem)
-    t2 = time.perf_counter()
-    half = math.radians(curve_range_deg)
-    angles = res.angle + np.linspace(-half, half, int(n_curve))
-    energies = np.array([problem.energy(a) for a in _progress_iter(progress, angles, f"{name}: energy curve")])
-    times = {"setup_time_s": t1 - t0, "time_s": t2 - t1, "curve_time_s": time.perf_counter() - t2}
-    return problem, res, angles, energies, times
+    return problem, res, {"setup_time_s": t1 - t0, "time_s": time.perf_counter() - t1}
 
 
 def _twist_relative_to_held(prof, fixed):
@@ -539,7 +550,35 @@ def _twist_relative_to_held(prof, fixed):
     return np.degrees(prof.vertex_alpha - np.median(prof.vertex_alpha[fixed]))
 
 
-def _write_join_states(out, F, states, m, others, name, large_deg, prefix, render):
+def wrap_deg(a):
+    """An angle in radians as degrees wrapped to (-180, 180] (how every report gives angles)."""
+    return float(np.degrees(wrap_angle(float(a))))
+
+
+#: What ``result.json`` says angle 0 and the sign of a rotation mean.
+ANGLE_REFERENCE = (
+    "angles are degrees in (-180, 180]; angle 0 puts the anchor moving_normal (a direction across the moving "
+    "end, at rest) on target_normal (across the target end); a positive angle turns the end right-handed "
+    "about the target tangent (the axis direction out of the moving vessel, into the other one); roll_deg "
+    "is the optimum minus the zero-twist angle: how far the end is turned beyond the twist-free placement"
+)
+
+
+def _marks(problem, angle):
+    """Lines drawn over a join render: the end ring, the target normal and the moving anchor's image."""
+    X = problem.deform(angle)
+    ring = X[problem.moving]
+    ring = np.concatenate([ring, ring[:1]])
+    o = problem.target.origin
+    r = float(problem.gc.radius_at([problem.deformer.s_end])[0]) * tol.VIZ_ANCHOR_LENGTH
+    Q, _ = problem.placement.end_map(angle)
+    Qi, _ = problem.placement.end_map(0.0)
+    # end_map(angle) maps the fit's U; the anchor's image is turned with it
+    m = Q @ (Qi.T @ problem.target.normal)
+    return [ring, np.stack([o, o + r * problem.target.normal]), np.stack([o, o + 0.8 * r * m])]
+
+
+def _write_join_states(out, F, states, m, others, name, large_deg, prefix, render, problem):
     """Shaded meshes, renders and profiles of the optimum and the large-torsion state."""
     files = {}
     label = "material twist \u03b1 (deg)"
@@ -550,41 +589,32 @@ def _write_join_states(out, F, states, m, others, name, large_deg, prefix, rende
         if render:
             what = "minimum torsion" if key == "optimum" else f"large torsion (optimum {large_deg:+.0f}\u00b0)"
             render_mesh(out / f"{key}.png", X, F, al, vmin=-m, vmax=m, others=others, cbar_label=label,
-                        title=f"{name}: {what}, end rotation {math.degrees(ang):.1f}\u00b0, "
-                              f"E = {prof.energy:.3g}")
+                        title=f"{name}: {what}, end rotation {wrap_deg(ang):.1f}\u00b0 from the anchor "
+                              f"(long tick: target normal), E = {prof.energy:.3g}",
+                        lines=_marks(problem, ang))
             plot_torsion_profile(out / f"profile_{key}.png", prof)
             files[f"{key}_png"] = prefix + f"{key}.png"
             files[f"profile_{key}_png"] = prefix + f"profile_{key}.png"
     return files
 
 
-def _write_joined(out, res_V, F, moving, other, al_opt, m, prefix):
-    """The optimum stitched to the other vessel's end ring, coloured (the other vessel in grey)."""
-    Vj, Fj = stitch(res_V, F, moving, other[0], other[1], other[2])
-    cj = np.full((len(Vj), 3), np.round(np.array(tol.VIZ_OTHER_GREY) * 255), dtype=np.uint8)
-    cj[: len(res_V)] = torsion_colors(al_opt, -m, m)
+def _write_joined(out, Vj, Fj, n_moving, al_opt, m, prefix):
+    """The optimum stitched to the other vessel, coloured (the other vessel in ``VIZ_OTHER_COLOR``)."""
+    cj = np.full((len(Vj), 3), np.round(np.array(tol.VIZ_OTHER_COLOR) * 255), dtype=np.uint8)
+    cj[:n_moving] = torsion_colors(al_opt, -m, m)
     aj = np.zeros(len(Vj))
-    aj[: len(res_V)] = al_opt
+    aj[:n_moving] = al_opt
     write_mesh(out / "joined_optimum.ply", Vj, Fj, vertex_colors=cj, vertex_scalars={"alpha_deg": aj})
     return {"joined_mesh": prefix + "joined_optimum.ply"}
 
 
 def run_join(outdir, V, F, fixed, moving, target, *, other=None, name="join", n_curve=None,
              curve_range_deg=None, large_deg=None, method="rod_arap", ends=None, progress=None, prefix="",
-             render=True):
-    """Minimum-torsion join of one vessel end, with the paper's figures (Figs. 2-4).
+             render=True, moving_normal=None):
+    """Minimum-torsion join of one vessel end given by ids and a target frame, with the paper's figures (Figs. 2-4).
 
-    Builds a :class:`vesselgp.JoinProblem`, runs :func:`vesselgp.minimize_torsion`,
-    evaluates the energy curve about the optimum and writes into ``outdir``:
-
-    * ``optimum.ply`` / ``.png``: the deformed vessel at the optimum, vertex
-      colours from the twist ``alpha`` relative to the held vertices (degrees,
-      also stored as the PLY property ``alpha_deg``); ``large_torsion.ply`` / ``.png``: the same at
-      ``optimum + large_deg`` (paper Figs. 2-3 (e) and (a, c)); both use one
-      colour range;
-    * ``energy_curve.png`` / ``.csv``: Fig. 4;
-    * ``profile_optimum.png``, ``profile_large_torsion.png``: ``alpha(s)`` and ``alpha'(s)``;
-    * ``joined_optimum.ply``: the optimum stitched to ``other`` (if its end ring is given).
+    Builds a :class:`vesselgp.JoinProblem`, runs :func:`vesselgp.minimize_torsion`
+    and writes the files of :func:`write_join_outputs` into ``outdir``.
 
     Parameters
     ----------
@@ -596,7 +626,103 @@ def run_join(outdir, V, F, fixed, moving, target, *, other=None, name="join", n_
         Held vertices and the joined end ring.
     target : Frame
     other : (V2, F2, loop_ids) or (V2, F2), optional
-        The vessel joined to: drawn grey in the renders, stitched when its end ring is given.
+        The vessel joined to: drawn in the renders, stitched when its end ring is given.
+    name : str
+    n_curve, curve_range_deg, large_deg, progress, prefix, render
+        See :func:`write_join_outputs`.
+    method : str
+        Deformation method (:class:`vesselgp.JoinProblem`).
+    ends : optional
+        Ends for the rest fit (default: found by :func:`vesselgp.vessel_ends`).
+    moving_normal : (3,) float64, optional
+        The anchor at the moving end that lands on ``target.normal`` at angle 0
+        (:class:`vesselgp.JoinProblem`; default the fit's U).
+
+    Returns
+    -------
+    dict
+        The fields of :data:`REPORT_FIELDS`.
+    """
+    problem, res, times = _join_search(V, F, fixed, moving, target, method, ends, moving_normal)
+    joined = None
+    if other is not None and len(other) > 2 and other[2] is not None:
+        joined = stitch(res.V, problem.F, problem.moving, other[0], other[1], other[2])
+    others = [] if other is None else [(other[0], other[1])]
+    return write_join_outputs(outdir, problem, res, times, others=others, joined=joined, name=name,
+                              n_curve=n_curve, curve_range_deg=curve_range_deg, large_deg=large_deg,
+                              progress=progress, prefix=prefix, render=render)
+
+
+def join_vessels_inputs(vessel, onto, end, other_end, *, hold=None, method="rod_arap", max_stretch=None,
+                        moving_normal=None, target_normal=None, units=None, scale=None):
+    """Read two vessel files and set up their join by end index (:class:`vesselgp.VesselJoin`).
+
+    Everything that can refuse the join happens here, before any output is written.
+
+    Returns
+    -------
+    dict
+        ``join`` (the :class:`vesselgp.VesselJoin`), ``inputs`` (both files) and ``units``.
+    """
+    V, F, uinfo = read_mesh_in(vessel, units, scale)
+    Vo, Fo, _ = read_mesh_in(onto, units, scale)
+    join = VesselJoin(V, F, end, Vo, Fo, other_end, hold=hold, method=method, max_stretch=max_stretch,
+                      moving_normal=moving_normal, target_normal=target_normal)
+    return {"join": join, "inputs": [vessel, onto], "units": uinfo}
+
+
+def run_join_vessels(outdir, join, *, name="join", n_curve=None, curve_range_deg=None, large_deg=None,
+                     progress=None, render=True):
+    """Solve a :class:`vesselgp.VesselJoin` (two vessels by end index) and write :func:`write_join_outputs`'s files.
+
+    Returns
+    -------
+    dict
+        The fields of :data:`REPORT_FIELDS`, plus ``end``, ``other_end_center``
+        and the number of vertices of the joined mesh.
+    """
+    t0 = time.perf_counter()
+    res = join.solve()
+    times = {"setup_time_s": join.setup_time_s, "time_s": time.perf_counter() - t0}
+    r = write_join_outputs(outdir, join.problem, res, times, others=[(join.other_V, join.other_F)],
+                           joined=(res.joined_V, res.joined_F), name=name, n_curve=n_curve,
+                           curve_range_deg=curve_range_deg, large_deg=large_deg, progress=progress, render=render)
+    r["joined_n_vertices"] = len(res.joined_V)
+    r["held_vertices"] = len(res.fixed)
+    return r
+
+
+def write_join_outputs(outdir, problem, res, times, *, others=(), joined=None, name="join", n_curve=None,
+                       curve_range_deg=None, large_deg=None, progress=None, prefix="", render=True):
+    """The energy curve about a join's optimum and the files of paper Figs. 2-4.
+
+    Writes into ``outdir``:
+
+    * ``optimum.ply`` / ``.png``: the deformed vessel at the optimum, vertex
+      colours from the twist ``alpha`` relative to the held vertices (degrees,
+      also stored as the PLY property ``alpha_deg``); ``large_torsion.ply`` / ``.png``: the same at
+      ``optimum + large_deg`` (paper Figs. 2-3 (e) and (a, c)); both use one
+      colour range; the renders draw the vessel joined to in sand
+      (``tolerances.VIZ_OTHER_COLOR``), the end ring (the seam) and two ticks
+      at the target: the target normal (long) and where the moving anchor
+      went (short; they coincide at angle 0);
+    * ``energy_curve.png`` / ``.csv``: Fig. 4;
+    * ``profile_optimum.png``, ``profile_large_torsion.png``: ``alpha(s)`` and ``alpha'(s)``;
+    * ``joined_optimum.ply``: the stitched mesh, when ``joined`` is given.
+
+    Parameters
+    ----------
+    outdir : str or os.PathLike
+        Existing folder.
+    problem : JoinProblem
+    res : JoinResult
+        Its optimum (:func:`vesselgp.minimize_torsion`).
+    times : dict
+        ``setup_time_s`` and ``time_s``, copied into the result.
+    others : sequence of (V, F)
+        Meshes drawn for context.
+    joined : (V, F), optional
+        The optimum stitched to the other vessel (moving vessel's vertices first).
     name : str
     n_curve : int, optional
         Points of the energy curve (``tolerances.DEMO_CURVE_POINTS``).
@@ -604,10 +730,6 @@ def run_join(outdir, V, F, fixed, moving, target, *, other=None, name="join", n_
         Half-width of the curve about the optimum (``DEMO_CURVE_RANGE_DEG``).
     large_deg : float, optional
         Rotation from the optimum of the "large torsion" configuration (``DEMO_LARGE_TORSION_DEG``).
-    method : str
-        Deformation method (:class:`vesselgp.JoinProblem`).
-    ends : optional
-        Ends for the rest fit (default: found by :func:`vesselgp.vessel_ends`).
     progress : None, bool or callable
         Progress bar over the energy curve: True for tqdm, or a ``tqdm``-like callable.
     prefix : str
@@ -624,18 +746,20 @@ def run_join(outdir, V, F, fixed, moving, target, *, other=None, name="join", n_
     curve_range_deg = tol.DEMO_CURVE_RANGE_DEG if curve_range_deg is None else float(curve_range_deg)
     large_deg = tol.DEMO_LARGE_TORSION_DEG if large_deg is None else float(large_deg)
     out = Path(outdir)
-    problem, res, angles, energies, times = _join_search(V, F, fixed, moving, target, method, ends, n_curve,
-                                                         curve_range_deg, progress, name)
+    t2 = time.perf_counter()
+    half = math.radians(curve_range_deg)
+    angles = res.angle + np.linspace(-half, half, int(n_curve))
+    energies = np.array([problem.energy(a) for a in _progress_iter(progress, angles, f"{name}: energy curve")])
+    times = {**times, "curve_time_s": time.perf_counter() - t2}
     t3 = time.perf_counter()
     a_large = res.angle + math.radians(large_deg)
     p_large = problem.profile(a_large)
     al_opt = _twist_relative_to_held(res.profile, problem.fixed)
     al_large = _twist_relative_to_held(p_large, problem.fixed)
     m = max(float(np.max(np.abs(al_large))), float(np.max(np.abs(al_opt))), tol.VIZ_MIN_RANGE)
-    others = [] if other is None else [(other[0], other[1])]
     states = (("optimum", res.V, al_opt, res.profile, res.angle),
               ("large_torsion", problem.deform(a_large), al_large, p_large, a_large))
-    files = _write_join_states(out, problem.F, states, m, others, name, large_deg, prefix, render)
+    files = _write_join_states(out, problem.F, states, m, list(others), name, large_deg, prefix, render, problem)
     write_csv(out / "energy_curve.csv", {"angle_deg": np.degrees(angles), "energy": energies})
     files["energy_curve_csv"] = prefix + "energy_curve.csv"
     if render:
@@ -643,18 +767,21 @@ def run_join(outdir, V, F, fixed, moving, target, *, other=None, name="join", n_
                           evaluated=(res.angles, res.energies), relative_to=res.angle,
                           title=f"{name}: torsion energy vs end rotation (Fig. 4)")
         files["energy_curve_png"] = prefix + "energy_curve.png"
-    if other is not None and len(other) > 2 and other[2] is not None:
-        files.update(_write_joined(out, res.V, problem.F, problem.moving, other, al_opt, m, prefix))
-    log.info("%s: optimum %.2f deg, E = %.4g, %d evaluations, %.2f s search", name, math.degrees(res.angle),
+    if joined is not None:
+        files.update(_write_joined(out, joined[0], joined[1], len(res.V), al_opt, m, prefix))
+    log.info("%s: optimum %.2f deg, E = %.4g, %d evaluations, %.2f s search", name, wrap_deg(res.angle),
              res.energy, res.n_evals, times["time_s"])
     return {
-        "name": name, "n_vertices": int(np.shape(V)[0]), "n_faces": len(problem.F),
-        "optimum_angle_deg": math.degrees(res.angle), "energy": res.energy,
+        "name": name, "n_vertices": int(np.shape(res.V)[0]), "n_faces": len(problem.F),
+        "optimum_angle_deg": wrap_deg(res.angle), "roll_deg": wrap_deg(res.roll), "energy": res.energy,
         "total_twist_deg": math.degrees(res.profile.total_twist),
-        "zero_twist_angle_deg": math.degrees(problem.zero_twist_angle), "n_evals": res.n_evals,
-        "status": res.status_name, "grid_scan": res.grid_scan, **times,
-        "output_time_s": time.perf_counter() - t3,
-        "large_torsion": {"angle_deg": math.degrees(a_large), "energy": p_large.energy,
+        "zero_twist_angle_deg": wrap_deg(res.zero_twist_angle), "n_evals": res.n_evals,
+        "status": res.status_name, "grid_scan": res.grid_scan,
+        "angle_reference": ANGLE_REFERENCE, "moving_normal": res.moving_normal, "target_normal": res.target_normal,
+        "target_origin": problem.target.origin, "target_tangent": problem.target.tangent,
+        "axial_stretch": res.axial_stretch, "max_bend": res.max_bend, "max_edge_stretch": res.max_edge_stretch,
+        **times, "output_time_s": time.perf_counter() - t3,
+        "large_torsion": {"angle_deg": wrap_deg(a_large), "energy": p_large.energy,
                           "total_twist_deg": math.degrees(p_large.total_twist)},
         "energy_curve": {"angles_deg": np.degrees(angles), "energies": energies},
         "evaluations": {"angles_deg": np.degrees(res.angles), "energies": res.energies},
@@ -721,7 +848,8 @@ def run_demo(outdir, *, resolution=1.0, n_curve=None, cases=(1, 2), pre_rotation
         target = Frame(case.target_origin, case.target_tangent, case.target_normal)
         r = run_join(sub, case.V, case.F, case.fixed, case.moving, target,
                      other=(case.other_V, case.other_F, case.other_end), name=f"case {n}",
-                     n_curve=n_curve, progress=progress, prefix=f"case{n}/", render=render)
+                     n_curve=n_curve, progress=progress, prefix=f"case{n}/", render=render,
+                     moving_normal=case.moving_normal)
         r["files"].update({"vessel": f"case{n}/vessel.ply", "other": f"case{n}/other.ply",
                            "case_json": f"case{n}/case.json"})
         r = {"case": int(n), "title": case.name, **r, "generate_time_s": tg}

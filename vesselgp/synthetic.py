@@ -1239,8 +1239,8 @@ class JoinCase:
         the deformed vessel (into the other vessel).
     target_normal : (3,) float64
         Unit, perpendicular to ``target_tangent``: where the moving end's rest
-        RMF normal U goes at rotation angle 0 (the other vessel's material U,
-        turned by ``pre_rotation`` about ``target_tangent``).
+        anchor :attr:`moving_normal` goes at rotation angle 0 (the other
+        vessel's material U, turned by ``pre_rotation`` about ``target_tangent``).
     other_V : (n2, 3) float64
     other_F : (m2, 3) int64
         The vessel joined to (not deformed).
@@ -1253,6 +1253,11 @@ class JoinCase:
     other_truth : GroundTruth
     pre_rotation : float
     seed : int
+    moving_normal : (3,) float64
+        The anchor at the moving end: the deformed vessel's material U there
+        (its true RMF normal turned by its true twist). With it, an
+        untwisted join of case 1 is at angle ``-pre_rotation`` give or take the
+        small twist-free roll of the bend.
     """
 
     V: np.ndarray
@@ -1272,6 +1277,7 @@ class JoinCase:
     other_truth: GroundTruth
     pre_rotation: float = 0.0
     seed: int = 0
+    moving_normal: np.ndarray | None = None
 
 
 def _end_loop(vessel, at):
@@ -1364,6 +1370,9 @@ def paper_case(n, *, pre_rotation=0.0, resolution=1.0, seed=0, noise=0.0):
     normal = rotate(normal, tangent, float(pre_rotation))
     normal -= (normal @ tangent) * tangent
     normal /= np.linalg.norm(normal)
+    _, fm = vessel.truth.axis_at([moving_at])
+    am = float(vessel.truth.twist(moving_at))
+    moving_normal = np.cos(am) * fm[0, 1] + np.sin(am) * fm[0, 2]  # the moving vessel's material U
     if np.intersect1d(fixed, moving).size:
         raise InvalidMeshError("fixed and moving vertex sets overlap; increase the resolution")
     return JoinCase(
@@ -1371,4 +1380,5 @@ def paper_case(n, *, pre_rotation=0.0, resolution=1.0, seed=0, noise=0.0):
         target_origin=c[0], target_tangent=tangent, target_normal=normal,
         other_V=other.V, other_F=other.F, other_end=other_end, units="mm", name=name,
         truth=vessel.truth, other_truth=other.truth, pre_rotation=float(pre_rotation), seed=int(seed),
+        moving_normal=moving_normal,
     )

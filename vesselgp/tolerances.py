@@ -236,6 +236,17 @@ JOIN_FTOL_REL = 1e-10
 JOIN_GRID_POINTS = 12
 #: Maximum NLopt energy evaluations (after the probes).
 JOIN_MAX_EVALS = 40
+#: Default held length of :func:`vesselgp.join_vessels`: this fraction of the moving vessel's axis,
+#: next to its other end, stays in place.
+JOIN_HOLD_FRACTION = 0.1
+#: A join whose free axis must stretch by more than this factor (deformed / rest length) is warned about.
+JOIN_STRETCH_WARN = 1.15
+#: Default refusal threshold of that stretch (``max_stretch`` of :func:`vesselgp.join_vessels`).
+JOIN_MAX_STRETCH = 1.3
+#: A join whose bent axis has curvature times radius above this is refused (the wall would fold).
+JOIN_MAX_BEND = 1.0
+#: A rounded tip is opened by removing the vertices beyond its centre plane within this many end radii.
+OPEN_DOME_REACH = 2.0
 
 # --- figures, demo and command line (vesselgp.viz, vesselgp.pipeline, vesselgp.cli) ---
 #: Smallest half-range of the symmetric colour scale of a signed quantity, in
@@ -249,8 +260,11 @@ VIZ_UP_TOLERANCE = 0.5
 VIZ_LIGHT = (-0.4, 0.5, 1.0)
 #: Ambient part of the flat shading (the rest is two-sided Lambert).
 VIZ_AMBIENT = 0.35
-#: Colour of the other meshes drawn for context (the vessel joined to).
-VIZ_OTHER_GREY = (0.78, 0.78, 0.78)
+#: Colour of the other meshes drawn for context (the vessel joined to): a warm sand, distinct
+#: from the grey-white zero of the twist colour map.
+VIZ_OTHER_COLOR = (0.86, 0.74, 0.52)
+#: Length, in end radii, of the target-normal tick drawn in join renders (the anchor's image: 0.8 of it).
+VIZ_ANCHOR_LENGTH = 2.0
 #: Meshes with more faces are decimated before rendering (keeps a render near 1 s).
 VIZ_MAX_FACES = 30000
 #: How far (percent of the bounding-box diagonal) the scalars of a decimated render

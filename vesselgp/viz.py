@@ -336,7 +336,7 @@ def _shaded_polygons(meshes, basis, norm, cmap, color, period=None):
                 fv = norm.vmin + np.mod(fv - norm.vmin, period)
             base = cmap(norm(fv))[:, :3]
         else:
-            rgb = color if main else tol.VIZ_OTHER_GREY
+            rgb = color if main else tol.VIZ_OTHER_COLOR
             base = np.tile(np.asarray(rgb, float), (len(order), 1))
         polys.append(poly)
         cols.append(np.clip(base * shade[:, None], 0, 1))
@@ -408,7 +408,8 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
     cmap : str
         Matplotlib colormap.
     others : sequence of (V, F)
-        Further meshes drawn in light grey in the same view (e.g. the vessel joined to).
+        Further meshes drawn in ``tolerances.VIZ_OTHER_COLOR`` (sand, not a colour of the twist
+        map) in the same view (e.g. the vessel joined to).
     color : (3,) float
         Colour of the mesh when ``scalars`` is None.
     max_faces : int, optional

@@ -30,14 +30,18 @@ def case_to_dict(case, resolution=None):
         "other_n_vertices": len(case.other_V), "fixed": case.fixed, "moving": case.moving,
         "moving_at": case.moving_at, "other_end": case.other_end, "target_origin": case.target_origin,
         "target_tangent": case.target_tangent, "target_normal": case.target_normal,
-        "vessel_length": case.truth.length, "vessel_curve": case.truth.name,
+        "moving_normal": case.moving_normal, "vessel_length": case.truth.length, "vessel_curve": case.truth.name,
         "vessel_mesh": "vessel.ply", "other_mesh": "other.ply",
     }
 
 
 def case_from_dict(d, n_vertices=None):
-    """``(fixed, moving, Frame, other_end)`` from a ``case.json`` dictionary.
+    """The join inputs of a ``case.json`` dictionary.
 
+    Returns a dict with ``fixed``, ``moving`` (int64 ids), ``target``
+    (:class:`vesselgp.Frame`), ``other_end`` (int64 ids or None) and
+    ``moving_normal`` ((3,) float64 or None: the anchor at the moving end that
+    lands on the target normal at angle 0; without it the fit's U does).
     ``other_mesh`` (the file of the vessel joined to, relative to the case
     file) is read by :func:`read_case`.
 
@@ -59,7 +63,9 @@ def case_from_dict(d, n_vertices=None):
     except (TypeError, ValueError) as exc:
         raise VesselError(f"case file vertex ids must be lists of integers ({exc})") from None
     target = Frame(d["target_origin"], d["target_tangent"], d["target_normal"])
-    return fixed, moving, target, other_end
+    mn = d.get("moving_normal")
+    return {"fixed": fixed, "moving": moving, "target": target, "other_end": other_end,
+            "moving_normal": None if mn is None else np.asarray(mn, float)}
 
 
 def write_case(folder, case, resolution=None):
@@ -86,9 +92,9 @@ def write_case(folder, case, resolution=None):
 
 
 def read_case(path, n_vertices=None):
-    """A ``case.json`` file: ``(fixed, moving, Frame, other_end, other_mesh)``.
+    """A ``case.json`` file: the dict of :func:`case_from_dict` plus ``other``.
 
-    ``other_mesh`` is the path of the vessel joined to, as the case file names
+    ``other`` is the path of the vessel joined to, as the case file names
     it (``"other_mesh"``, relative to the case file's folder), or None when
     the case names none.
 
@@ -98,11 +104,11 @@ def read_case(path, n_vertices=None):
         Unreadable or malformed case file, or a named ``other_mesh`` that does not exist.
     """
     d = read_json(path, "case file")
-    fixed, moving, target, other_end = case_from_dict(d, n_vertices)
+    out = case_from_dict(d, n_vertices)
     other = d.get("other_mesh")
     if other is not None:
         other = Path(path).parent / str(other)
         if not other.is_file():
             raise VesselError(f"case file {path} names other_mesh {other}, which does not exist; "
                               "restore it or remove 'other_mesh' from the case file")
-    return fixed, moving, target, other_end, other
+    return {**out, "other": other}

@@ -12,6 +12,7 @@ One concept per module:
 * :mod:`.ends`: :func:`vessel_ends` finds where a vessel ends (open boundary
   loops, flat caps of a closed surface, or rounded extremities), and
   :func:`select_ends` picks the two ends of the vessel's path among them;
+* :mod:`.open_end`: :func:`open_end` removes a flat cap or a rounded tip, leaving a boundary loop;
 * :mod:`.stitch`: :func:`stitch` bridges two vessels' end rings into one mesh.
 
 The package is a lower layer: it imports only errors, tolerances, input
@@ -22,6 +23,7 @@ from __future__ import annotations
 from .clean import CleanReport, clean_mesh
 from .ends import VesselEnd, select_ends, vessel_ends
 from .scale import MeshScale, mesh_scale
+from .open_end import open_end
 from .stitch import stitch
 from .topology import MeshTopology, mesh_topology
 from ._ends_format import bbox_diagonal, format_point
@@ -35,6 +37,7 @@ __all__ = [
     "VesselEnd",
     "select_ends",
     "stitch",
+    "open_end",
     "MeshTopology",
     "mesh_topology",
     "format_point",

@@ -1,0 +1,291 @@
+"""Join two real vessels by end index: :func:`join_vessels` (paper Section 2.3 and 3).
+
+Everything a join needs is derived from the two meshes and two end indices
+(into :func:`vesselgp.vessel_ends` of each mesh):
+
+* a capped or rounded end is opened (:func:`vesselgp.mesh.open_end`), so that
+  both ends are boundary rings;
+* the moving vessel is fitted between its other end and the joined end
+  (``s = 0`` at the held end, ``s = 1`` at the joined end), and a length of
+  vessel next to the other end is held (``tolerances.JOIN_HOLD_FRACTION`` of
+  the axis by default);
+* the target is the other end's centre, with tangent minus its outward
+  direction (the joined vessel continues into the other one);
+* angle 0 is a visible anchor: ``moving_normal`` (a direction across the
+  moving end) lands on ``target_normal`` (across the other end). By default
+  both are the world axis (x, y or z) most perpendicular to the end's
+  direction, projected into the end's plane, so that two ends facing each
+  other with no roll are at angle 0;
+* before the search the join is checked for plausibility: an axial stretch of
+  the free part above ``max_stretch`` or a bend tighter than the radius allows
+  (curvature times radius above ``tolerances.JOIN_MAX_BEND``) is refused, a
+  stretch above ``tolerances.JOIN_STRETCH_WARN`` is warned about;
+* :func:`vesselgp.minimize_torsion` finds the end rotation of least torsion
+  (Eq. 8) and the result is stitched to the other vessel
+  (:func:`vesselgp.mesh.stitch`) into one manifold mesh, checked to be one
+  connected piece.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from . import tolerances as tol
+from ._validate import as_mesh, as_vector
+from .deform import Frame
+from .errors import EndsError, ImplausibleJoinError, InvalidMeshError
+from .fit import fit_generalized_cylinder
+from .join import JoinProblem, minimize_torsion
+from .mesh import MeshTopology, open_end, stitch, vessel_ends
+from .mesh._ends_format import end_listing
+
+log = logging.getLogger(__name__)
+
+__all__ = ["join_vessels", "VesselJoin", "default_normal"]
+
+
+def default_normal(direction):
+    """The default anchor across an end: the world axis most perpendicular to ``direction``, in its plane.
+
+    Parameters
+    ----------
+    direction : (3,) float64
+        An end's axis direction (either sense gives the same anchor).
+
+    Returns
+    -------
+    (3,) float64
+        Unit, perpendicular to ``direction``.
+
+    Examples
+    --------
+    >>> default_normal([0.0, 0.2, 1.0]).round(3).tolist()
+    [1.0, 0.0, 0.0]
+    """
+    d = as_vector(direction, "direction")
+    d = d / np.linalg.norm(d)
+    e = np.eye(3)[int(np.argmin(np.abs(d)))]
+    n = e - (e @ d) * d
+    return n / np.linalg.norm(n)
+
+
+def _pick(ends, i, what):
+    """``ends[i]``, or an :class:`EndsError` that lists the ends."""
+    if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < len(ends):
+        raise EndsError(f"{what} must be an end index in 0..{len(ends) - 1}, got {i!r} "
+                        f"(ends: {end_listing(ends)})")
+    return ends[int(i)]
+
+
+def _opened(V, F, ends, i, what):
+    """The mesh with end ``i`` opened, its ends, and the index of the opened end among them."""
+    e = _pick(ends, i, what)
+    W, G, loop, kept = open_end(V, F, e)
+    new = vessel_ends(W, G) if e.kind != "open" else ends
+    dist = [np.linalg.norm(x.center - e.center) + (0.0 if x.kind == "open" else np.inf) for x in new]
+    j = int(np.argmin(dist))
+    if not set(np.asarray(new[j].loop).tolist()) == set(loop.tolist()):
+        raise EndsError(f"opening {what} {i} ({e.describe()}) did not leave its rim as an end; "
+                        "repair the mesh (vesselgp clean) and try again")
+    return W, G, kept, new, j
+
+
+def _held(gc, hold, kept, n_user):
+    """Held vertex ids in the opened moving mesh from ``hold`` (None, a fraction, or user vertex ids)."""
+    if hold is None or np.ndim(hold) == 0:
+        f = tol.JOIN_HOLD_FRACTION if hold is None else float(hold)
+        if not 0.0 < f < 1.0:
+            raise EndsError(f"hold as an arc-length fraction must be in (0, 1), got {hold!r}")
+        fixed = np.flatnonzero(gc.vertex_s <= f)
+        if len(fixed) == 0:
+            raise EndsError(f"no vertex lies within {f:g} of the axis length of the held end; give a larger hold")
+        return fixed
+    ids = np.asarray(hold)
+    if ids.dtype == bool or not np.issubdtype(ids.dtype, np.integer) or ids.ndim != 1:
+        raise EndsError("hold must be None, an arc-length fraction in (0, 1) or a 1-D array of vertex ids")
+    if ids.size == 0 or ids.min() < 0 or ids.max() >= n_user:
+        raise EndsError(f"hold vertex ids must be in 0..{n_user - 1} (the moving vessel's vertices)")
+    new = np.full(n_user, -1, np.int64)
+    new[kept] = np.arange(len(kept))
+    out = new[ids]
+    if np.any(out < 0):
+        raise EndsError(f"{int(np.sum(out < 0))} hold vertices belong to the cap that was removed to open the "
+                        "joined end; hold vertices of the vessel's other end")
+    return np.unique(out)
+
+
+def _plausible(problem, max_stretch):
+    """Refuse a target the vessel cannot reach without tearing or folding; warn when it is a stretch."""
+    pl, gc = problem.placement, problem.gc
+    st = pl.axial_stretch
+    if st > max_stretch:
+        raise ImplausibleJoinError(
+            f"the target needs the free part of the vessel stretched {st:.2f}x along its axis (max_stretch "
+            f"{max_stretch:g}); move the other vessel closer, hold less (hold=) or raise max_stretch"
+        )
+    kr, s = pl.max_bend
+    if kr > tol.JOIN_MAX_BEND:
+        raise ImplausibleJoinError(
+            f"the target bends the vessel with curvature {kr:.2f}/r at s={s * gc.length:.3g} (radius "
+            f"{float(gc.radius_at(s)[0]):.3g}): tighter than the radius allows, the wall would fold; "
+            "choose a target that needs a gentler bend"
+        )
+    if st > tol.JOIN_STRETCH_WARN:
+        log.warning("the join stretches the free part of the vessel %.2fx along its axis", st)
+
+
+class VesselJoin:
+    """A join of two real vessels by end index, validated and set up: :meth:`solve` runs it.
+
+    Construction does everything that can refuse the join (end indices,
+    opening caps, the fit, the held part, the plausibility of the target), so
+    a caller that writes files can build it first and write nothing when it
+    raises. Parameters are those of :func:`join_vessels`.
+
+    Attributes
+    ----------
+    problem : JoinProblem
+        On the opened moving vessel (its fit, deformer, meter and anchor).
+    V : (n', 3) float64
+        The moving vessel with its joined end opened (rest).
+    F : (m', 3) int64
+    kept : (n',) int64
+        Input vertex id of each row of ``V``.
+    ends : tuple of VesselEnd
+        Ends of the opened moving vessel; ``end`` indexes the joined one.
+    end : int
+    other_V : (n2', 3) float64
+        The vessel joined to, with its end opened.
+    other_F : (m2', 3) int64
+    other_loop : (r,) int64
+        Its end ring, in ``other_V``.
+    other : VesselEnd
+        Its opened end (centre and direction give the target).
+    setup_time_s : float
+        Seconds the set-up took (ends, opening, fit, factorisations).
+    """
+
+    def __init__(self, V, F, end, V_other, F_other, other_end, *, hold=None, method="rod_arap",
+                 max_stretch=None, moving_normal=None, target_normal=None):
+        t0 = time.perf_counter()
+        V, F = as_mesh(V, F)
+        Vo, Fo = as_mesh(V_other, F_other)
+        max_stretch = tol.JOIN_MAX_STRETCH if max_stretch is None else float(max_stretch)
+        if not max_stretch >= 1.0:
+            raise ImplausibleJoinError(f"max_stretch must be at least 1 (no stretch), got {max_stretch!r}")
+        ends = vessel_ends(V, F)
+        ends_o = vessel_ends(Vo, Fo)
+        _pick(ends, end, "end")
+        _pick(ends_o, other_end, "other_end")
+        if len(ends) != 2:
+            raise EndsError(f"the moving vessel has {len(ends)} ends; join_vessels moves a tube with two ends "
+                            f"(cut the branch to move out of the tree first) (ends: {end_listing(ends)})")
+        W, G, kept, new_ends, j = _opened(V, F, ends, end, "end")
+        Wo, Go, _, ends_o2, jo = _opened(Vo, Fo, ends_o, other_end, "other_end")
+        e_move, e_other = new_ends[j], ends_o2[jo]
+        gc = fit_generalized_cylinder(W, G, ends=(new_ends[1 - j], e_move))
+        fixed = _held(gc, hold, kept, len(V))
+        tangent = -np.asarray(e_other.direction, float)
+        mn = default_normal(e_move.direction) if moving_normal is None else moving_normal
+        tn = default_normal(tangent) if target_normal is None else target_normal
+        self.problem = JoinProblem(W, G, fixed, np.asarray(e_move.loop, np.int64),
+                                   Frame(e_other.center, tangent, tn), method=method, gc=gc, moving_normal=mn)
+        _plausible(self.problem, max_stretch)
+        self.V, self.F, self.kept, self.ends, self.end = W, G, kept, tuple(new_ends), j
+        self.other_V, self.other_F, self.other = Wo, Go, e_other
+        self.other_loop = np.asarray(e_other.loop, np.int64)
+        self.setup_time_s = time.perf_counter() - t0
+
+    def solve(self, **search):
+        """The minimum-torsion join (:func:`vesselgp.minimize_torsion`), stitched into one mesh.
+
+        Parameters
+        ----------
+        **search
+            Options of :func:`vesselgp.minimize_torsion` (``xtol``, ``algorithm``, ...).
+
+        Returns
+        -------
+        JoinResult
+            See :func:`join_vessels`.
+        """
+        p = self.problem
+        res = minimize_torsion(p, **search)
+        Vj, Fj = stitch(res.V, self.F, p.moving, self.other_V, self.other_F, self.other_loop)
+        top = MeshTopology(Fj, len(Vj))
+        pieces = top.face_components[0]
+        if pieces != 1 or not top.is_edge_manifold:
+            raise InvalidMeshError(f"the joined mesh has {pieces} pieces and {len(top.nonmanifold_edges)} "
+                                   "non-manifold edges; check both meshes with vesselgp clean")
+        log.info("join_vessels: angle %.2f deg from the anchors, roll %.2f deg, axial stretch %.3f, edge "
+                 "stretch %.3f", np.degrees(res.angle), np.degrees(res.roll), res.axial_stretch,
+                 res.max_edge_stretch)
+        return replace(res, joined_V=Vj, joined_F=Fj, seam=p.moving.copy(), kept=self.kept)
+
+
+def join_vessels(V, F, end, V_other, F_other, other_end, *, hold=None, method="rod_arap", max_stretch=None,
+                 moving_normal=None, target_normal=None):
+    """Join end ``end`` of one vessel onto end ``other_end`` of another with the least torsion.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+        The vessel that is deformed (a tube with two ends).
+    F : (m, 3) int64
+    end : int
+        Index into ``vessel_ends(V, F)`` of the end that moves; the other end is held.
+    V_other : (n2, 3) float64
+        The vessel joined to (it does not move; it may be a tree).
+    F_other : (m2, 3) int64
+    other_end : int
+        Index into ``vessel_ends(V_other, F_other)`` of the end joined to.
+    hold : None, float or (p,) int, optional
+        What stays in place: None for the default fraction
+        ``tolerances.JOIN_HOLD_FRACTION`` of the axis next to the other end, a
+        fraction in (0, 1), or vertex ids of ``V``.
+    method : str
+        Deformation method (:class:`vesselgp.JoinProblem`).
+    max_stretch : float, optional
+        Largest axial stretch of the free part accepted (default
+        ``tolerances.JOIN_MAX_STRETCH``).
+    moving_normal : (3,) float64, optional
+        Anchor across the moving end (default :func:`default_normal` of its direction).
+    target_normal : (3,) float64, optional
+        Where it lands at angle 0 (default :func:`default_normal` of the other end's direction).
+
+    See Also
+    --------
+    VesselJoin : the same, set up and validated first (for callers that write files).
+
+    Returns
+    -------
+    JoinResult
+        With ``V``/``F`` the deformed (opened) moving vessel, ``kept`` the
+        original id of each of its vertices, ``fixed``/``moving`` the held ids
+        and the joined ring in it, ``joined_V``/``joined_F`` the stitched mesh
+        (moving vessel first) and ``seam`` the ring where they meet. ``angle``
+        is measured from the anchors; ``roll`` from the twist-free placement.
+
+    Raises
+    ------
+    EndsError
+        Bad end indices, a moving vessel without exactly two ends, a bad ``hold``.
+    ImplausibleJoinError
+        The target needs too much stretch or too tight a bend.
+    InvalidMeshError
+        The stitched mesh is not one connected piece.
+
+    Examples
+    --------
+    >>> from vesselgp.synthetic import paper_case
+    >>> c = paper_case(1, resolution=0.25)
+    >>> r = join_vessels(c.V, c.F, 1, c.other_V, c.other_F, 0)
+    >>> bool(abs(np.degrees(r.profile.total_twist)) < 1.0), len(MeshTopology.from_faces(r.joined_F).boundary_loops)
+    (True, 2)
+    """
+    return VesselJoin(V, F, end, V_other, F_other, other_end, hold=hold, method=method,
+                      max_stretch=max_stretch, moving_normal=moving_normal,
+                      target_normal=target_normal).solve()
