@@ -7,8 +7,8 @@ case), then times ``join_vessels`` end to end: both ``vessel_ends``, opening cap
 deformer and meter set-up, the search and the stitch. The median of ``--repeat`` runs.
 
 Cases: a synthetic capped S-curve of about ``n`` vertices onto a straight open tube of about the same
-size (``--sizes``), and the real coronary (open) onto the real capped artery of
-``../shared/data/real``.
+size (``--sizes``), the real coronary (open) onto the real capped artery of
+``../shared/data/real``, and one iliac of the real Y (a moving tree) onto the same artery.
 
 Usage::
 
@@ -56,7 +56,11 @@ def _case(name, V, F, end, Vo, Fo, other_end, repeat):
     import vesselgp as vg
 
     ends = vg.vessel_ends(V, F)
-    L = vg.fit_generalized_cylinder(V, F).length
+    if len(ends) == 2:
+        L = vg.fit_generalized_cylinder(V, F).length
+    else:  # a tree: the length of the moving end's own branch
+        tree = vg.fit_vessel_tree(V, F)
+        L = tree.branches[tree.path_branches[[p.ends[1] for p in tree.paths].index(end)][-1]].length
     eo = vg.vessel_ends(Vo, Fo)
     origin, t = issue_target(ends[end], L)
     W = place(Vo, eo[other_end], origin, t, np.radians(70.0))
@@ -84,6 +88,11 @@ def bench_join_vessels(sizes, repeat=3):
         V, F = vg.read_mesh(cor)[:2]
         Vo, Fo = vg.read_mesh(cap)[:2]
         rows.append(_case("real coronary (open) onto real capped artery", V, F, 1, Vo, Fo, 1, repeat))
+        y = REAL / "vmtk_abdominal_aorta_iliac_bifurcation_open.stl"
+        if y.exists():
+            Vy, Fy = vg.read_mesh(y)[:2]
+            k = int(np.argmin([e.radius for e in vg.vessel_ends(Vy, Fy)]))
+            rows.append(_case("real Y (an iliac moves, a tree) onto real capped artery", Vy, Fy, k, Vo, Fo, 0, repeat))
     return rows
 
 

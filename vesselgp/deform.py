@@ -31,7 +31,12 @@ cylinder* first and the mesh second (method ``"rod_arap"``, the default):
 4. **Placement.** Every vertex keeps its rest ``(s_i, theta_i, offset)``
    (``GeneralizedCylinder.vertex_local``) and is placed in the new frame turned
    by ``alpha(s_i)``; fixed vertices keep their positions, the moving vertices
-   are placed by the rigid map of the end frame onto the target frame.
+   are placed by the rigid map of the end frame onto the target frame. An end
+   cut obliquely spans a range of ``s``; the free vertices within that range
+   follow the rigid map too and the rod placement blends into it over
+   ``tolerances.DEFORM_END_BLEND`` times the range (smoothstep), so the ring
+   and its neighbours do not disagree by the bend's rotation across the ring
+   (which folded faces next to the cut end of a real iliac).
 5. **Refinement.** A few libigl ARAP iterations from that start with the
    fixed and moving vertices as handles (the factorisation is computed once).
 
@@ -207,7 +212,9 @@ class RodDeformer:
     moving : (q,) int
         Vertex ids of the end that is moved (its boundary loop, or loop and cap).
     gc : GeneralizedCylinder, optional
-        Fitted on ``V`` (fitted here when omitted, with ``ends``).
+        Fitted on ``V`` (fitted here when omitted, with ``ends``). A path of
+        :func:`vesselgp.fit_vessel_tree` works too: the vertices it leaves
+        unparameterised (NaN, other branches) must then be in ``fixed``.
     ends : optional
         Passed to :func:`vesselgp.fit_generalized_cylinder`.
     method : {"rod_arap", "rod", "arap", "laplacian"}
@@ -267,6 +274,11 @@ class RodDeformer:
             gc = fit_generalized_cylinder(V, F, ends=ends)
         if not isinstance(gc, GeneralizedCylinder) or len(gc.vertex_s) != n:
             raise MismatchError("gc must be a GeneralizedCylinder fitted on V (same vertex count)")
+        off = ~np.isfinite(gc.vertex_s)
+        off[fixed] = False
+        if off.any():
+            raise EndsError(f"{int(off.sum())} vertices lie off the fitted path (other branches of a tree) and are "
+                            "not held; hold them (add them to fixed)")
         self.V, self.F, self.gc = V, F, gc
         self.fixed, self.moving = fixed, moving
         self.method = method
@@ -289,6 +301,8 @@ class RodDeformer:
         """Which end moves (``s_end``), where the free part starts, its dense-axis nodes."""
         gc, r, L = self.gc, self.gc.mean_radius, self.gc.length
         sm = gc.vertex_s[self.moving]
+        if not np.all(np.isfinite(sm)):
+            raise EndsError("moving vertices lie off the fitted path; give the ring of the end the path runs to")
         self.s_end = 1.0 if float(np.mean(sm)) >= 0.5 else 0.0
         far = float(np.max(np.abs(sm - self.s_end))) * L
         if far > tol.JOIN_END_REACH * r:
@@ -298,6 +312,9 @@ class RodDeformer:
             )
         ds = gc.dense_s
         sf = gc.vertex_s[self.fixed]
+        sf = sf[np.isfinite(sf)]  # a tree path leaves the other branches' vertices unparameterised (NaN)
+        if len(sf) == 0:
+            raise EndsError("no fixed vertex lies on the fitted path; hold part of the vessel the path runs through")
         # the node at or beyond the fixed vertex nearest the moving end (half a sample of slack)
         half = 0.5 / (len(ds) - 1)
         if self.s_end == 1.0:
@@ -339,6 +356,26 @@ class RodDeformer:
         self.free = np.flatnonzero(free)
         self.free_s = sv[self.free]
         self.local = self.gc.vertex_local[self.free]
+        self._end_blend()
+
+    def _end_blend(self):
+        """Weights of the rigid end map for free vertices next to an oblique end ring (module notes, step 4).
+
+        The moving ring spans the axial range from ``s_r`` (its vertex farthest
+        from the end) to ``s_e``. Free vertices in that range follow the ring's
+        rigid map; over ``DEFORM_END_BLEND`` times the range before it the rod
+        placement blends into it (smoothstep). A ring square to the axis
+        (``s_r = s_e``) leaves the rod placement unchanged.
+        """
+        sm = self.gc.vertex_s[self.moving]
+        s_r = float(sm.min() if self.s_end == 1.0 else sm.max())
+        extent = abs(self.s_end - s_r)
+        x = np.zeros(len(self.free))
+        if extent > 0.0:
+            beyond = (self.free_s - s_r) * np.sign(self.s_end - s_r)  # > 0 inside the ring's range
+            x = np.clip(1.0 + beyond / (tol.DEFORM_END_BLEND * extent), 0.0, 1.0)
+        self._blend = np.flatnonzero(x > 0.0)
+        self._beta = (x * x * (3.0 - 2.0 * x))[self._blend]
 
     def edge_stretch(self, X):
         """Largest deformed-over-rest edge length of deformed vertices ``X`` ((n, 3) float64)."""
@@ -574,7 +611,11 @@ class RodPlacement:
         x = ca * L[:, 1] - sa * L[:, 2]
         y = sa * L[:, 1] + ca * L[:, 2]
         X[d.free] = self._vm + L[:, :1] * self._vT + x[:, None] * self._vU + y[:, None] * self._vV
-        _, X[d.moving] = self.end_map(angle)
+        Q, X[d.moving] = self.end_map(angle)
+        if len(d._blend):
+            ids = d.free[d._blend]
+            rigid = self.target.origin + (d.V[ids] - d.end_center) @ Q.T
+            X[ids] += d._beta[:, None] * (rigid - X[ids])
         return X
 
     def deform(self, angle=0.0):

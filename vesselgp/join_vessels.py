@@ -8,7 +8,9 @@ Everything a join needs is derived from the two meshes and two end indices
 * the moving vessel is fitted between its other end and the joined end
   (``s = 0`` at the held end, ``s = 1`` at the joined end), and a length of
   vessel next to the other end is held (``tolerances.JOIN_HOLD_FRACTION`` of
-  the axis by default);
+  the axis by default); a moving tree is fitted with
+  :func:`vesselgp.fit_vessel_tree`, its path from the widest other end to the
+  joined end is the axis, and every branch but the joined end's own is held;
 * the target is the other end's centre, with tangent minus its outward
   direction (the joined vessel continues into the other one);
 * angle 0 is a visible anchor: ``moving_normal`` (a direction across the
@@ -38,6 +40,7 @@ from ._validate import as_mesh, as_vector
 from .deform import Frame
 from .errors import EndsError, ImplausibleJoinError, InvalidMeshError
 from .fit import fit_generalized_cylinder
+from .tree import fit_vessel_tree
 from .join import JoinProblem, minimize_torsion
 from .mesh import MeshTopology, open_end, stitch, vessel_ends
 from .mesh._ends_format import end_listing
@@ -164,6 +167,8 @@ class VesselJoin:
         Its end ring, in ``other_V``.
     other : VesselEnd
         Its opened end (centre and direction give the target).
+    tree : VesselTree or None
+        The moving vessel's tree fit when it has more than two ends.
     setup_time_s : float
         Seconds the set-up took (ends, opening, fit, factorisations).
     """
@@ -180,14 +185,15 @@ class VesselJoin:
         ends_o = vessel_ends(Vo, Fo)
         _pick(ends, end, "end")
         _pick(ends_o, other_end, "other_end")
-        if len(ends) != 2:
-            raise EndsError(f"the moving vessel has {len(ends)} ends; join_vessels moves a tube with two ends "
-                            f"(cut the branch to move out of the tree first) (ends: {end_listing(ends)})")
         W, G, kept, new_ends, j = _opened(V, F, ends, end, "end")
         Wo, Go, _, ends_o2, jo = _opened(Vo, Fo, ends_o, other_end, "other_end")
         e_move, e_other = new_ends[j], ends_o2[jo]
-        gc = fit_generalized_cylinder(W, G, ends=(new_ends[1 - j], e_move))
-        fixed = _held(gc, hold, kept, len(V))
+        self.tree = None
+        if len(new_ends) == 2:
+            gc = fit_generalized_cylinder(W, G, ends=(new_ends[1 - j], e_move))
+            fixed = _held(gc, hold, kept, len(V))
+        else:
+            gc, fixed = self._tree_path(W, G, new_ends, j, hold, kept, len(V))
         tangent = -np.asarray(e_other.direction, float)
         mn = default_normal(e_move.direction) if moving_normal is None else moving_normal
         tn = default_normal(tangent) if target_normal is None else target_normal
@@ -198,6 +204,24 @@ class VesselJoin:
         self.other_V, self.other_F, self.other = Wo, Go, e_other
         self.other_loop = np.asarray(e_other.loop, np.int64)
         self.setup_time_s = time.perf_counter() - t0
+
+    def _tree_path(self, W, G, ends, j, hold, kept, n_user):
+        """A moving tree: the path from the widest other end (the root) to the moving end, and what is held.
+
+        By default everything but the moving end's own branch is held (the free part runs from the
+        last junction to the end); a fraction ``hold`` holds that much of the path next to the root
+        plus every other branch.
+        """
+        root = max((i for i in range(len(ends)) if i != j), key=lambda i: ends[i].radius)
+        self.tree = tree = fit_vessel_tree(W, G, root, ends=ends)
+        k = next(i for i, p in enumerate(tree.paths) if p.ends[1] == j)
+        gc = tree.paths[k]
+        off = ~np.isfinite(gc.vertex_s)
+        if hold is None:
+            fixed = np.flatnonzero(tree.vertex_branch != tree.path_branches[k][-1])
+        else:
+            fixed = np.union1d(_held(gc, hold, kept, n_user), np.flatnonzero(off))
+        return gc, fixed
 
     def solve(self, **search):
         """The minimum-torsion join (:func:`vesselgp.minimize_torsion`), stitched into one mesh.
@@ -233,7 +257,9 @@ def join_vessels(V, F, end, V_other, F_other, other_end, *, hold=None, method="r
     Parameters
     ----------
     V : (n, 3) float64
-        The vessel that is deformed (a tube with two ends).
+        The vessel that is deformed: a tube with two ends, or a tree (then the
+        path from its widest other end to ``end`` is fitted and, by default,
+        everything but the moving end's own branch is held).
     F : (m, 3) int64
     end : int
         Index into ``vessel_ends(V, F)`` of the end that moves; the other end is held.
@@ -244,8 +270,9 @@ def join_vessels(V, F, end, V_other, F_other, other_end, *, hold=None, method="r
         Index into ``vessel_ends(V_other, F_other)`` of the end joined to.
     hold : None, float or (p,) int, optional
         What stays in place: None for the default fraction
-        ``tolerances.JOIN_HOLD_FRACTION`` of the axis next to the other end, a
-        fraction in (0, 1), or vertex ids of ``V``.
+        ``tolerances.JOIN_HOLD_FRACTION`` of the axis next to the other end (a
+        tree: every branch but the moving one), a fraction in (0, 1) of the
+        axis (a tree: of the path, plus every other branch), or vertex ids of ``V``.
     method : str
         Deformation method (:class:`vesselgp.JoinProblem`).
     max_stretch : float, optional
@@ -272,7 +299,7 @@ def join_vessels(V, F, end, V_other, F_other, other_end, *, hold=None, method="r
     Raises
     ------
     EndsError
-        Bad end indices, a moving vessel without exactly two ends, a bad ``hold``.
+        Bad end indices or a bad ``hold``.
     ImplausibleJoinError
         The target needs too much stretch or too tight a bend.
     InvalidMeshError

@@ -589,8 +589,8 @@ def _write_join_states(out, F, states, m, others, name, large_deg, prefix, rende
         if render:
             what = "minimum torsion" if key == "optimum" else f"large torsion (optimum {large_deg:+.0f}\u00b0)"
             render_mesh(out / f"{key}.png", X, F, al, vmin=-m, vmax=m, others=others, cbar_label=label,
-                        title=f"{name}: {what}, end rotation {wrap_deg(ang):.1f}\u00b0 from the anchor "
-                              f"(long tick: target normal), E = {prof.energy:.3g}",
+                        title=f"{name}: {what}\nturned {wrap_deg(ang):.1f}\u00b0 from the anchor "
+                              f"(ticks: target normal, anchor), E = {prof.energy:.3g}",
                         lines=_marks(problem, ang))
             plot_torsion_profile(out / f"profile_{key}.png", prof)
             files[f"{key}_png"] = prefix + f"{key}.png"

@@ -216,6 +216,9 @@ DEFORM_REFINE_ITERATIONS = 1
 #: The free part starts at the dense axis node at the fixed vertex nearest the moving end,
 #: with this fraction of half a sample spacing of slack (round-off at a node).
 DEFORM_NODE_SLACK = 1e-6
+#: Length, in multiples of an oblique moving ring's axial extent, over which the rod placement of the
+#: free vertices before the ring blends into the ring's rigid map (vesselgp.deform, step 4).
+DEFORM_END_BLEND = 4.0
 #: ARAP iterations of the plain "arap" comparison method (from the rest shape).
 DEFORM_ARAP_ITERATIONS = 10
 #: Moving vertices must lie within this many mean radii (along the axis) of a vessel end.
@@ -264,7 +267,7 @@ VIZ_AMBIENT = 0.35
 #: from the grey-white zero of the twist colour map.
 VIZ_OTHER_COLOR = (0.86, 0.74, 0.52)
 #: Length, in end radii, of the target-normal tick drawn in join renders (the anchor's image: 0.8 of it).
-VIZ_ANCHOR_LENGTH = 2.0
+VIZ_ANCHOR_LENGTH = 4.0
 #: Meshes with more faces are decimated before rendering (keeps a render near 1 s).
 VIZ_MAX_FACES = 30000
 #: How far (percent of the bounding-box diagonal) the scalars of a decimated render
