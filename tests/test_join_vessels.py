@@ -360,3 +360,27 @@ def test_cli_refuses_before_writing(tmp_path, coronary, capped_placed, capsys):
     rc = main(["join", str(CORONARY), "--end", "1", "--onto", str(far), "-o", str(out)])
     assert rc == 2 and not out.exists()
     assert "--other-end" in capsys.readouterr().err
+
+
+def test_stretch_warning_and_a_rounded_other_end(caplog):
+    """Paper case 1 needs a 1.23x axial stretch (warned, above 1.15); a tree's rounded tip is opened to join onto."""
+    c = paper_case(1, resolution=0.25)
+    with caplog.at_level("WARNING", logger="vesselgp"):
+        res = vg.join_vessels(c.V, c.F, 1, c.other_V, c.other_F, 0)
+    assert any("stretches the free part" in r.getMessage() for r in caplog.records)
+    assert 1.15 < res.axial_stretch < 1.3
+    from vesselgp.synthetic_tree import synthetic_tree
+
+    tr = synthetic_tree(1, voxel=0.5)
+    te = vg.vessel_ends(tr.V, tr.F)
+    k = next(i for i, e in enumerate(te) if e.kind == "rounded")
+    v = synthetic_vessel("straight", n_around=24, radius=float(te[k].radius))
+    ev = vg.vessel_ends(v.V, v.F)
+    # the tube's end 0 placed 0.1 of its length beyond the tip, facing it; then joined onto the opened tip
+    W = place_other(v.V, ev[0], te[k].center + 0.1 * v.truth.length * _unit(te[k].direction),
+                    te[k].direction, 0.0)
+    res = vg.join_vessels(W, v.F, 0, tr.V, tr.F, k)
+    top = MeshTopology(res.joined_F, len(res.joined_V))
+    assert top.face_components[0] == 1 and top.is_edge_manifold
+    assert np.linalg.norm(res.V[res.moving].mean(0) - te[k].center) < 0.2 * te[k].radius
+    assert abs(np.degrees(res.profile.total_twist)) <= 1.0
