@@ -434,6 +434,7 @@ def main(argv=None):
                          "when its venv exists, see scripts/bench_tree.py)")
     ap.add_argument("--join-vessels-sizes", default="10k",
                     help="join_vessels (two vessels by end index) synthetic sizes; the real pair is always added")
+    ap.add_argument("--no-twist", action="store_true", help="skip the twist_between pairs")
     ap.add_argument("--quick", action="store_true", help="10k fit and join only (smoke test, a few seconds)")
     ap.add_argument("--repeat", type=int, default=3, help="timed repetitions below 300k vertices (median)")
     ap.add_argument("--format", default=".ply", choices=(".ply", ".stl", ".obj", ".off", ".vtp"),
@@ -497,15 +498,27 @@ def main(argv=None):
     except Exception as exc:
         errors.append(f"join_vessels: {type(exc).__name__}: {exc}")
         print("    FAILED:", errors[-1], flush=True)
+    import bench_twist
+
+    tw_rows = []
+    if not args.no_twist:
+        print("twist_between ...", flush=True)
+        try:
+            tw_rows = bench_twist.bench_twist(args.repeat)
+        except Exception as exc:
+            errors.append(f"twist_between: {type(exc).__name__}: {exc}")
+            print("    FAILED:", errors[-1], flush=True)
     mach["load_1min_at_end"] = round(os.getloadavg()[0], 2)
     targets = (evaluate_targets(fit_rows, join_rows) + bench_tree.tree_targets(tree_rows)
-               + bench_join_vessels.join_vessels_targets(jv_rows))
+               + bench_join_vessels.join_vessels_targets(jv_rows) + bench_twist.twist_targets(tw_rows))
     date = datetime.date.today().isoformat()
     md = markdown(fit_rows, join_rows, targets, mach, date)
     if tree_rows:
         md += "\n\n" + bench_tree.tree_markdown(tree_rows)
     if jv_rows:
         md += "\n\n" + bench_join_vessels.join_vessels_markdown(jv_rows)
+    if tw_rows:
+        md += "\n\n" + bench_twist.twist_markdown(tw_rows)
     print()
     print(md)
     if errors:
@@ -513,7 +526,7 @@ def main(argv=None):
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"date": date, "machine": mach, "fit": fit_rows, "join": join_rows, "tree": tree_rows,
-                               "join_vessels": jv_rows, "targets": targets, "errors": errors}, indent=1))
+                               "join_vessels": jv_rows, "twist": tw_rows, "targets": targets, "errors": errors}, indent=1))
     print(f"\nwrote {out}")
     if args.markdown:
         Path(args.markdown).write_text(md + "\n")

@@ -134,6 +134,30 @@ MUTATIONS = {
         "        if False:",
         ["tests/test_join_vessels.py"],
     ),
+    "twist_azimuth_left_handed": (
+        "vesselgp/twist.py",
+        "math.atan2(d @ W, d @ U)",
+        "math.atan2(-(d @ W), d @ U)",
+        ["tests/test_twist.py"],
+    ),
+    "twist_main_axis_from_tree_path": (
+        "vesselgp/twist.py",
+        "    main = fit_generalized_cylinder(V, F, ends=(i, j), mesh_ends=all_ends)",
+        "    main = tree.paths[k]",
+        ["tests/test_twist.py"],
+    ),
+    "twist_flip_keeps_azimuth": (
+        "vesselgp/twist.py",
+        "azimuth=(-self.azimuth)[o]",
+        "azimuth=self.azimuth[o]",
+        ["tests/test_twist.py"],
+    ),
+    "tips_no_pole_retry": (
+        "vesselgp/mesh/_ends_tips.py",
+        "        return _pole(V, g, fit, R, dstar)  # not on the tube's axis seen from the dome: retry from its pole",
+        "        return None",
+        ["tests/test_twist.py"],
+    ),
     "open_dome_plane_shifted": (
         "vesselgp/mesh/open_end.py",
         "    beyond = (D @ d > 0.0)",

@@ -22,6 +22,7 @@ from .join_vessels import VesselJoin, join_vessels  # noqa: F401
 from .fit import GeneralizedCylinder, fit_generalized_cylinder  # noqa: F401
 from .tree import VesselTree, fit_vessel_tree  # noqa: F401
 from .torsion import TorsionMeter, TorsionProfile, measure_torsion  # noqa: F401
+from .twist import ScanTwist, twist_between  # noqa: F401
 from . import synthetic  # noqa: F401
 
 _logging.getLogger(__name__).addHandler(_logging.NullHandler())

@@ -41,6 +41,7 @@ EPILOG = {
   vesselgp fit vessel.stl -o fit                  axis.json/.csv/.vtp/.ply, shaded mesh
   vesselgp torsion rest.ply deformed.ply -o tor   twist profile, energy, shaded mesh
   vesselgp join vessel.ply --case case.json -o j  minimum-torsion end rotation, Fig. 2-4 outputs
+  vesselgp twist scan_a.stl scan_b.stl -o tw     twist between two scans, side branches as landmarks
   vesselgp clean raw.stl -o cleaned               repaired mesh + report
 
 meshes in metres, centimetres or micrometres: pass --units m|cm|um (or --scale
@@ -62,6 +63,9 @@ run 'vesselgp <command> --help' for the options of a command.""",
   vesselgp join coronary.stl --end 1 --onto artery.stl --other-end 0 -o j2
   vesselgp join v.ply --fixed 0-99 --moving @moving.txt --target-origin 40 2 0 \\
       --target-tangent 1 0 0 --target-normal 0 0 1 -o join""",
+    "twist": """examples:
+  vesselgp twist supine.stl flexed.stl -o tw
+  vesselgp twist a.stl b.stl --ends-a 0 3 --ends-b 1 0 --units cm -o tw""",
     "clean": """examples:
   vesselgp clean segmentation.stl -o cleaned --json
   vesselgp clean voxel_staircase.stl --smooth 20 --units m -o cleaned""",
@@ -270,6 +274,19 @@ def _cmd_join_vessels(args):
     return _join_summary(args, r, inp, out)
 
 
+def cmd_twist(args):
+    tw = pipeline.twist_scans(args.scan_a, args.scan_b, ends_a=args.ends_a, ends_b=args.ends_b, units=args.units,
+                              scale=args.scale)
+    out = OutputFolder(args.output, tw["inputs"], args.overwrite)
+    out.check(pipeline.TWIST_FILES)
+    d = pipeline.write_twist(out, tw, render=not args.no_png)
+    summary = {k: d[k] for k in ("command", "n_landmarks", "ends_a", "ends_b", "segment_twist_deg", "stretch",
+                                 "twist_per_length_deg_per_cm", "total_twist_deg", "time_s", *_UNIT_KEYS)}
+    summary["files"] = out.files
+    _emit(args, summary, pipeline.twist_table(d) + "\n" + _files_text(out))
+    return 0
+
+
 def cmd_clean(args):
     out = OutputFolder(args.output, [args.mesh], args.overwrite)
     rep, d = pipeline.run_clean(args.mesh, out, fmt=args.format, smooth=args.smooth, units=args.units,
@@ -440,6 +457,26 @@ def _add_join(sub, fmt):
     p.set_defaults(func=cmd_join)
 
 
+def _add_twist(sub, fmt):
+    """The ``twist`` subcommand."""
+    p = sub.add_parser("twist", help="material twist between two scans of one artery, from its side branches",
+                       description="Twist between two scans of the same artery (e.g. supine and flexed): the side "
+                                   "branches are the landmarks, matched in order along the main vessel; each "
+                                   "segment's twist is the change of their azimuths in the rotation-minimizing "
+                                   "frame.", formatter_class=fmt, epilog=EPILOG["twist"])
+    p.add_argument("scan_a", help="first scan (the reference for lengths and direction)")
+    p.add_argument("scan_b", help="second scan (any pose and meshing)")
+    p.add_argument("--ends-a", type=int, nargs=2, metavar=("I", "J"),
+                   help="main-vessel ends of scan A, from I (default: the two widest, widest first)")
+    p.add_argument("--ends-b", type=int, nargs=2, metavar=("I", "J"),
+                   help="main-vessel ends of scan B, from the same anatomical end (default: the two widest, "
+                        "direction decided by the landmarks)")
+    _units_options(p, "both scans")
+    p.add_argument("--no-png", action="store_true", help="do not render PNGs")
+    _common(p, "vesselgp-twist")
+    p.set_defaults(func=cmd_twist)
+
+
 def _add_clean(sub, fmt):
     """The ``clean`` subcommand."""
     p = sub.add_parser("clean", help="repair a mesh (duplicates, non-manifold parts, small pieces)",
@@ -523,7 +560,7 @@ def build_parser():
                     "rotation-minimizing frame, minimum-torsion joining.")
     ap.add_argument("--version", action="version", version=f"vesselgp {__version__}")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND")
-    for add in (_add_fit, _add_torsion, _add_join, _add_clean, _add_ends, _add_generate, _add_demo):
+    for add in (_add_fit, _add_torsion, _add_join, _add_twist, _add_clean, _add_ends, _add_generate, _add_demo):
         add(sub, fmt)
     return ap
 

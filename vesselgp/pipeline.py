@@ -19,6 +19,7 @@ are read through :func:`read_mesh_in`, which converts them into millimetres
 from __future__ import annotations
 
 import contextlib
+import tempfile
 import logging
 import math
 import os
@@ -42,7 +43,9 @@ from .mesh.scale import UNIT_NAMES, units_factor
 from .rotations import wrap_angle
 from .synthetic import deform_synthetic, paper_case, synthetic_vessel
 from .torsion import TorsionMeter
-from .viz import plot_energy_curve, plot_torsion_profile, render_mesh, torsion_colors
+from .twist import twist_between
+from .viz import (compose_side_by_side, plot_cumulative_twist, plot_energy_curve, plot_torsion_profile, render_mesh,
+                  torsion_colors)
 
 log = logging.getLogger(__name__)
 
@@ -859,6 +862,109 @@ def run_demo(outdir, *, resolution=1.0, n_curve=None, cases=(1, 2), pre_rotation
               "total_time_s": time.perf_counter() - T0, "fields": REPORT_FIELDS}
     write_json(out / "report.json", report)
     return report
+
+
+# ----------------------------------------------------------------------------- twist between two scans
+
+
+#: Files :func:`write_twist` may write.
+TWIST_FILES = ("twist.json", "twist.csv", "twist_scans.png", "twist_profile.png")
+
+
+def twist_scans(scan_a, scan_b, *, ends_a=None, ends_b=None, units=None, scale=None):
+    """Read two scans and measure the twist between them (:func:`vesselgp.twist_between`).
+
+    Nothing is written: a refusal leaves no output behind.
+
+    Returns
+    -------
+    dict
+        ``result`` (:class:`vesselgp.ScanTwist`), ``A`` and ``B`` (``(V, F)`` in mm),
+        ``inputs``, ``units`` and ``time_s``.
+    """
+    Va, Fa, uinfo = read_mesh_in(scan_a, units, scale)
+    Vb, Fb, _ = read_mesh_in(scan_b, units, scale)
+    t0 = time.perf_counter()
+    r = twist_between(Va, Fa, Vb, Fb, ends_a=ends_a, ends_b=ends_b)
+    return {"result": r, "A": (Va, Fa), "B": (Vb, Fb), "inputs": [scan_a, scan_b], "units": uinfo,
+            "time_s": time.perf_counter() - t0}
+
+
+def twist_to_dict(r):
+    """JSON-ready :class:`vesselgp.ScanTwist` (lengths in mm, angles in degrees, rates in degrees per cm)."""
+    seg = np.degrees(r.segment_twist)
+    return {
+        "n_landmarks": len(r.s_a), "ends_a": list(r.ends_a), "ends_b": list(r.ends_b),
+        "length_a": r.length_a, "length_b": r.length_b,
+        "landmarks_a": r.landmarks_a, "landmarks_b": r.landmarks_b, "s_a": r.s_a, "s_b": r.s_b,
+        "azimuth_a_deg": np.degrees(r.azimuth_a), "azimuth_b_deg": np.degrees(r.azimuth_b),
+        "side_radius_a": r.radius_a, "side_radius_b": r.radius_b,
+        "segment_twist_deg": seg, "segment_length_a": r.segment_length_a, "segment_length_b": r.segment_length_b,
+        "twist_per_length_deg_per_cm": np.degrees(r.twist_per_length) * 10.0, "stretch": r.stretch,
+        "cumulative_twist_deg": np.concatenate([[0.0], np.cumsum(seg)]),
+        "total_twist_deg": math.degrees(r.total_twist),
+        "unmatched_s_a": r.unmatched_a, "unmatched_s_b": r.unmatched_b,
+        "sign": "right-handed about the main axis from ends_a[0] to ends_a[1]",
+    }
+
+
+def write_twist(out, tw, *, render=True):
+    """``twist.json``, ``twist.csv`` (one row per segment) and, with ``render``, ``twist_scans.png``
+    (both scans side by side, landmarks numbered, main axes drawn) and ``twist_profile.png``
+    (cumulative twist against arc length, each segment's value on it).
+
+    Parameters
+    ----------
+    out : OutputFolder
+    tw : dict
+        From :func:`twist_scans`.
+    render : bool
+
+    Returns
+    -------
+    dict
+        The contents of ``twist.json``.
+    """
+    r = tw["result"]
+    d = {"command": "twist", "scan_a": str(tw["inputs"][0]), "scan_b": str(tw["inputs"][1]), **tw["units"],
+         "time_s": tw["time_s"], **twist_to_dict(r)}
+    write_json(out("twist.json"), d)
+    k = len(r.segment_twist)
+    write_csv(out("twist.csv"), {
+        "segment": np.arange(1, k + 1), "s_a_start": r.s_a[:-1], "s_a_end": r.s_a[1:],
+        "length_a": r.segment_length_a, "length_b": r.segment_length_b, "stretch": r.stretch,
+        "twist_deg": d["segment_twist_deg"], "twist_deg_per_cm": d["twist_per_length_deg_per_cm"],
+        "cumulative_deg": d["cumulative_twist_deg"][1:]})
+    if render:
+        with tempfile.TemporaryDirectory(prefix="vesselgp-twist-") as tmp:
+            panels = []
+            for name, (V, F), P, tree, e in (("A", tw["A"], r.landmarks_a, r.tree_a, r.ends_a),
+                                             ("B", tw["B"], r.landmarks_b, r.tree_b, r.ends_b)):
+                panels.append(Path(tmp) / f"scan_{name}.png")
+                render_mesh(panels[-1], V, F, alpha=tol.VIZ_TREE_ALPHA, lines=[b.dense_points for b in tree.branches],
+                            labels=[(p, str(j + 1)) for j, p in enumerate(P)], color=tol.VIZ_OTHER_COLOR,
+                            title=f"scan {name}: main vessel from end {e[0]} to end {e[1]}")
+            compose_side_by_side(out("twist_scans.png"), panels,
+                                 title=f"twist between the scans: total {d['total_twist_deg']:+.1f}\u00b0 over "
+                                       f"{len(r.s_a)} landmarks (side branches)")
+        plot_cumulative_twist(out("twist_profile.png"), r.s_a, d["cumulative_twist_deg"],
+                              segment_deg=d["segment_twist_deg"])
+    return d
+
+
+def twist_table(d):
+    """The printed table of ``vesselgp twist``."""
+    rows = [f"{'seg':>3} {'s_a (mm)':>17} {'len A':>7} {'len B':>7} {'stretch':>7} {'twist':>8} {'deg/cm':>7}"]
+    for j, tw in enumerate(d["segment_twist_deg"]):
+        rows.append(f"{j + 1:>3} {d['s_a'][j]:>7.1f} - {d['s_a'][j + 1]:>7.1f} {d['segment_length_a'][j]:>7.1f} "
+                    f"{d['segment_length_b'][j]:>7.1f} {d['stretch'][j]:>7.3f} {tw:>+8.1f} "
+                    f"{d['twist_per_length_deg_per_cm'][j]:>+7.2f}")
+    rows.append(f"total twist {d['total_twist_deg']:+.1f} deg over {d['n_landmarks']} landmarks "
+                f"(right-handed about scan A's main axis from end {d['ends_a'][0]} to {d['ends_a'][1]})")
+    if len(d["unmatched_s_a"]) or len(d["unmatched_s_b"]):
+        rows.append(f"unmatched landmarks: scan A at s = {np.round(d['unmatched_s_a'], 1).tolist()}, "
+                    f"scan B at s = {np.round(d['unmatched_s_b'], 1).tolist()}")
+    return "\n".join(rows)
 
 
 # ----------------------------------------------------------------------------- clean, generate

@@ -69,6 +69,7 @@ from .rotations import (
     wrap_angle,
 )
 
+from .synthetic_scans import ScanPair, twist_pair  # noqa: E402
 from .synthetic_tree import (THREE_TIP_PARENTS, SyntheticTree, TreeBranch, TreeEnd, TreePath, TreeTruth,  # noqa: E402
                              synthetic_tree, tree_parents)
 
@@ -84,6 +85,9 @@ __all__ = [
     "signed_volume",
     # vessel trees (vesselgp.synthetic_tree), re-exported here
     "synthetic_tree",
+    # two scans with side branches and a known twist (vesselgp.synthetic_scans)
+    "twist_pair",
+    "ScanPair",
     "tree_parents",
     "THREE_TIP_PARENTS",
     "SyntheticTree",

@@ -560,7 +560,7 @@ def tree_parents(levels):
     return tuple((i - 1) // 2 for i in range(2 ** (int(levels) + 1) - 1))
 
 
-def _check_parents(parents):
+def _check_parents(parents, allowed=(0, 2, 3)):
     """Validated parent list and each branch's children; raise :class:`OptionError`."""
     try:
         parents = tuple(int(p) for p in parents)
@@ -571,8 +571,9 @@ def _check_parents(parents):
     children = [[] for _ in parents]
     for i, p in enumerate(parents[1:], 1):
         children[p].append(i)
-    if any(len(c) not in (0, 2, 3) for c in children):
-        raise OptionError(f"every branch must have 0, 2 or 3 children, got parents {parents}")
+    if any(len(c) not in allowed for c in children):
+        counts = ", ".join(map(str, allowed[:-1])) + f" or {allowed[-1]}"
+        raise OptionError(f"every branch must have {counts} children, got parents {parents}")
     return parents, children
 
 
@@ -1008,11 +1009,45 @@ def synthetic_tree(levels=2, *, parents=None, radius=3.0, taper=0.8, tube_taper=
                        length=length, length_ratio=length_ratio, voxel=voxel, blend=blend)
     rng = np.random.default_rng(seed)
     ctrl, radii, level = _layout(parents, children, p, rng)
-    branches = _branches(parents, ctrl, radii, level)
+    return tree_surface(parents, ctrl, radii, voxel=p["voxel"], blend=p["blend"] * p["radius"],
+                        target_vertices=target_vertices, staircase=staircase, seed=seed)
+
+
+def tree_surface(parents, control, radii, *, voxel, blend, target_vertices=None, staircase=False, seed=0):
+    """The tree surface of given Bezier branches (the meshing of :func:`synthetic_tree`).
+
+    Parameters
+    ----------
+    parents : sequence of int
+        Parent of each branch, -1 first; parents come before their children, and a child
+        starts at its parent's end point. A branch may have one child (a chain of tubes).
+    control : (b, 4, 3) float64
+        Bezier control points of each branch; the root starts at the origin along +z
+        (the root plane z = 0 cuts it open).
+    radii : (b, 2) float64
+        Start and end radius of each branch (linear in the curve parameter).
+    voxel : float
+    blend : float
+        Width of the smooth union, a length.
+    target_vertices : int, optional
+    staircase : bool
+    seed : int
+        Recorded in the result.
+
+    Returns
+    -------
+    SyntheticTree
+    """
+    parents, children = _check_parents(parents, allowed=(0, 1, 2, 3))
+    control, radii = np.asarray(control, np.float64), np.asarray(radii, np.float64)
+    level = np.zeros(len(parents), np.int64)
+    for b, par in enumerate(parents):
+        level[b] = 0 if par < 0 else level[par] + 1
+    branches = _branches(parents, control, radii, level)
     ends, paths = _ends_and_paths(branches, children)
-    truth = TreeTruth(branches=branches, ends=ends, paths=paths, blend=p["blend"] * p["radius"],
+    truth = TreeTruth(branches=branches, ends=ends, paths=paths, blend=float(blend),
                       root_plane=np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0]]))
-    h = p["voxel"] if target_vertices is None else _voxel_for(branches, target_vertices)
+    h = float(voxel) if target_vertices is None else _voxel_for(branches, target_vertices)
     band = tol.TREE_BAND_VOXELS * h + truth.blend
     _check_layout(branches, h, band, truth.blend)
     grid = _grid(branches, h, band + h, centred=staircase)

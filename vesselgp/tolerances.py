@@ -208,6 +208,8 @@ TREE_JUNCTION_RADII = 2.0
 TREE_TIP_RADII = 1.5
 #: Rounds of the well-composed repair of a voxel occupancy before giving up.
 TREE_WELL_COMPOSED_ROUNDS = 50
+#: Smooth-union width of the synthetic scan pairs' junctions, in main radii (vesselgp.synthetic_scans).
+SCAN_PAIR_BLEND = 0.25
 
 # --- deformation and joining (vesselgp.deform, vesselgp.join) ---------------
 #: ARAP iterations refining the rod placement (method "rod_arap"); the rod start is
@@ -371,6 +373,8 @@ ENDS_TIP_REACH = 2.0
 ENDS_TIP_CROSS_RINGS = 3
 #: Rounded tips: the tube is examined this many radii past the dome's equator.
 ENDS_TIP_TUBE_RADII = 1.0
+#: ... and at least this many rings (median edges) past the equator, for tips only a few edges across.
+ENDS_TIP_TUBE_RINGS = 5
 #: Rounded tips: the tube rings' centroids move down the axis at unit speed within this ...
 ENDS_TIP_SPEED_TOL = 0.35
 #: ... on a line within this many radii (rms) ...
@@ -429,3 +433,21 @@ TREE_JUNCTION_REACH = 2.0
 TREE_PROJECTION_WINDOW = 2.0
 #: Opacity of the mesh in the tree picture of ``vesselgp fit`` (the axis network shows through).
 VIZ_TREE_ALPHA = 0.35
+
+# --- twist between two scans (vesselgp.twist) ---
+#: A side branch's initial direction is the chord of its axis from this many main radii past the junction...
+TWIST_DIR_START = 2.0
+#: ...to this many side-branch radii further along it.
+TWIST_DIR_SPAN = 2.0
+#: A side branch leaving the main axis within this many degrees of its tangent has no azimuth (not a landmark).
+TWIST_MIN_ANGLE_DEG = 10.0
+#: Landmark matching: spread of the normalised position s / L between the scans (one sigma)...
+TWIST_MATCH_POSITION = 0.08
+#: ...and of the log radius ratio of the side branches.
+TWIST_MATCH_RADIUS = 0.4
+#: Cost of leaving a landmark unmatched (a pair costs the sum of its squared normalised differences).
+TWIST_MATCH_GAP = 4.5
+#: The two directions of scan B are called equally good when their match costs differ by less than this fraction.
+TWIST_DIRECTION_MARGIN = 0.1
+#: A segment twist above this many degrees is logged as a suspect match.
+TWIST_SUSPECT_DEG = 120.0

@@ -37,6 +37,8 @@ __all__ = [
     "plot_energy_curve",
     "plot_torsion_profile",
     "view_basis",
+    "compose_side_by_side",
+    "plot_cumulative_twist",
 ]
 
 # Figure layout (not numerical tolerances): tallest mesh render in inches, and the
@@ -345,9 +347,10 @@ def _shaded_polygons(meshes, basis, norm, cmap, color, period=None):
     return np.concatenate(polys)[order], np.concatenate(cols)[order]
 
 
-def _render_figure(poly, col, title, colorbar, lines=(), alpha=None):
+def _render_figure(poly, col, title, colorbar, lines=(), alpha=None, labels=()):
     """Figure of screen polygons at equal aspect; ``colorbar`` is None or (ScalarMappable, label);
-    ``lines`` are screen polylines (k, 2) drawn on top; ``alpha`` makes the faces translucent."""
+    ``lines`` are screen polylines (k, 2) drawn on top; ``alpha`` makes the faces translucent;
+    ``labels`` are ``((2,) screen point, text)`` drawn boxed on top."""
     from matplotlib.collections import PolyCollection
 
     xy = poly.reshape(-1, 2)
@@ -367,6 +370,10 @@ def _render_figure(poly, col, title, colorbar, lines=(), alpha=None):
                                      linewidths=0.6 if alpha is None else 0.0, antialiaseds=False, alpha=alpha))
     for L in lines:
         ax.plot(L[:, 0], L[:, 1], "-", color="black", lw=1.6, alpha=0.85, solid_capstyle="round")
+    for (x, y), text in labels:
+        ax.plot([x], [y], "o", color="black", ms=4)
+        ax.annotate(text, (x, y), xytext=(6, 6), textcoords="offset points", fontsize=10, fontweight="bold",
+                    bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "black", "lw": 0.8})
     pad = 0.02 * max(w, h)
     ax.set_xlim(x0 - pad, x1 + pad)
     ax.set_ylim(y0 - pad, y1 + pad)
@@ -383,7 +390,7 @@ def _render_figure(poly, col, title, colorbar, lines=(), alpha=None):
 
 def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material twist \u03b1 (deg)",
                 view=None, vmin=None, vmax=None, cmap="coolwarm", others=(), color=(0.85, 0.45, 0.4),
-                max_faces=None, dpi=None, period=None, lines=(), alpha=None):
+                max_faces=None, dpi=None, period=None, lines=(), alpha=None, labels=()):
     """Render a (shaded) mesh to a PNG, headless.
 
     Orthographic view from :func:`view_basis` (side-on, equal aspect), faces
@@ -428,6 +435,8 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
         Polylines (e.g. the fitted axis) drawn over the mesh, in black.
     alpha : float, optional
         Opacity of the faces in (0, 1]: a translucent mesh shows the lines inside it.
+    labels : sequence of ((3,) float64, str)
+        Points marked and labelled on top (e.g. numbered landmarks).
 
     Returns
     -------
@@ -467,7 +476,8 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
     drawn = [np.asarray(L, float) @ basis[:2].T for L in lines]
     if alpha is not None and not 0 < float(alpha) <= 1:
         raise OptionError(f"alpha must be in (0, 1], got {alpha!r}")
-    fig = _render_figure(poly, col, title, bar, drawn, alpha)
+    marks = [(np.asarray(P, float) @ basis[:2].T, str(t)) for P, t in labels]
+    fig = _render_figure(poly, col, title, bar, drawn, alpha, marks)
     _save_png(fig, path, dpi, facecolor="white")
     log.info("rendered %s (%d faces)", path, len(poly))
     return Path(path)
@@ -563,6 +573,84 @@ def plot_torsion_profile(path, profile, *, title=None):
     a2.grid(True, alpha=0.3)
     a1.set_title(title or f"total twist {np.degrees(profile.total_twist):.1f}\u00b0, "
                  f"energy E = {profile.energy:.4g} (Eq. 8)", fontsize=10)
+    fig.tight_layout()
+    _save_png(fig, path, tol.VIZ_DPI)
+    return Path(path)
+
+
+def compose_side_by_side(path, images, *, title=None):
+    """Place PNG renders side by side in one PNG (e.g. two scans of one vessel).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output ``.png`` (written atomically).
+    images : sequence of str or os.PathLike
+        PNG files, left to right.
+    title : str, optional
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    from matplotlib.image import imread
+
+    ims = [imread(str(p)) for p in images]
+    h = max(im.shape[0] for im in ims)
+    w = sum(im.shape[1] for im in ims)
+    dpi = tol.VIZ_DPI
+    fig = _figure((w / dpi, h / dpi + (0.4 if title else 0.0)))
+    x = 0.0
+    for im in ims:
+        ax = fig.add_axes([x / w, 0.0, im.shape[1] / w, h / (h + (0.4 * dpi if title else 0.0))])
+        ax.imshow(im)
+        ax.set_axis_off()
+        x += im.shape[1]
+    if title:
+        fig.text(0.5, 1 - 0.2 / (h / dpi + 0.4), title, ha="center", va="center", fontsize=11)
+    _save_png(fig, path, dpi, facecolor="white")
+    return Path(path)
+
+
+def plot_cumulative_twist(path, s, twist_deg, *, segment_deg=None, xlabel="arc length along scan A (mm)",
+                          title=None):
+    """Cumulative twist against arc length, with each segment's value written on it.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output ``.png``.
+    s : (k,) float64
+        Arc length of each landmark.
+    twist_deg : (k,) float64
+        Cumulative twist at each landmark (degrees, 0 at the first).
+    segment_deg : (k - 1,) float64, optional
+        The twist of each segment, written at its middle (default: the differences).
+    xlabel, title : str
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    s = np.asarray(s, float).reshape(-1)
+    c = np.asarray(twist_deg, float).reshape(-1)
+    if s.shape != c.shape or len(s) < 2:
+        raise VesselError(f"s and twist_deg must be equally long, with at least two points; got {s.shape}, {c.shape}")
+    seg = np.diff(c) if segment_deg is None else np.asarray(segment_deg, float).reshape(-1)
+    fig = _figure((6.4, 4.0))
+    ax = fig.subplots()
+    ax.plot(s, c, "-o", color="C0", lw=1.8, ms=5)
+    for j, v in enumerate(seg):
+        ax.annotate(f"{v:+.1f}\u00b0", (0.5 * (s[j] + s[j + 1]), 0.5 * (c[j] + c[j + 1])), xytext=(0, 8),
+                    textcoords="offset points", ha="center", fontsize=9)
+    for j, (x, y) in enumerate(zip(s, c)):
+        ax.annotate(str(j + 1), (x, y), xytext=(0, -14), textcoords="offset points", ha="center", fontsize=8,
+                    color="0.3")
+    ax.axhline(0.0, color="0.6", lw=0.8)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("cumulative twist (deg)")
+    ax.grid(True, alpha=0.3)
+    ax.set_title(title or f"twist between the scans: total {c[-1] - c[0]:+.1f}\u00b0", fontsize=10)
     fig.tight_layout()
     _save_png(fig, path, tol.VIZ_DPI)
     return Path(path)

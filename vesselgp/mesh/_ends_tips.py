@@ -24,7 +24,8 @@ geodesic rings close in to a point like those of a hemisphere.
    unit speed. The candidate is a tip only if
 
    * every ring (up to ``tolerances.ENDS_TIP_TUBE_RADII`` radii past the
-     equator) is a planar circle (``ENDS_TIP_RING_ASPECT``,
+     equator, and at least ``tolerances.ENDS_TIP_TUBE_RINGS`` rings: a thin
+     tip a few edges across needs them for a stable axis) is a planar circle (``ENDS_TIP_RING_ASPECT``,
      ``ENDS_TIP_RING_FLATNESS``),
    * the tube's ring centroids move at about unit speed on a line, its rings
      are round and of radius ``R``, and the dome's rings follow
@@ -40,7 +41,11 @@ geodesic rings close in to a point like those of a hemisphere.
    or a junction (rings split into branches) fail; the checks overlap, so
    one of them failing on a noisy tip is not enough to miss a clean one. The
    end's centre is the sphere's centre, its radius ``R`` (the tube's) and
-   its direction the tube's axis. The Dijkstra radius grows from
+   its direction the tube's axis. The candidate (a maximum of ``D``) lies off
+   the pole of a side branch that leaves its vessel at a wide angle, and its
+   rings are then oblique on the tube: when only the tube or pole checks fail,
+   the test is repeated once from the vertex where the rings' axis leaves the
+   dome. The Dijkstra radius grows from
    ``tolerances.ENDS_TIP_START_EDGES`` median edges by
    ``tolerances.ENDS_TIP_GROWTH`` until the test can decide, so the cost is
    that of the dome and a radius of tube (a few times more for the ridge in
@@ -224,10 +229,17 @@ def _tip(V, faces, G, p, pers, h):
     """
     cap = max(tol.ENDS_TIP_REACH * pers, tol.ENDS_TIP_START_EDGES * h)
     L = tol.ENDS_TIP_START_EDGES * h
+    recentred = False
     while True:
         L = min(L, cap)
         g = dijkstra(G, indices=int(p), limit=L)
         res = _hemisphere(V, faces, p, g, h, L)
+        if isinstance(res, tuple):  # ("pole", q): the rings' axis meets the dome at q, not at p
+            if recentred or res[1] == p:
+                return None
+            log.debug("tip candidate %d: retried from the dome's pole %d", p, res[1])
+            p, recentred = res[1], True
+            continue
         if res != "more":
             return res
         if L >= cap or _explored_all(G, g):
@@ -295,7 +307,7 @@ def _hemisphere(V, faces, p, g, h, L):
     R = float(rho[cross[0]])
     for _ in range(2):  # the equator's distance, then the radius of the tube past it
         dstar = 0.5 * np.pi * R
-        far = dstar + tol.ENDS_TIP_TUBE_RADII * R
+        far = dstar + max(tol.ENDS_TIP_TUBE_RADII * R, tol.ENDS_TIP_TUBE_RINGS * h)
         if far > L:
             return "more"
         tube = np.flatnonzero(valid & (d >= dstar) & (d <= far))
@@ -303,8 +315,10 @@ def _hemisphere(V, faces, p, g, h, L):
             return None
         R = float(np.average(rho[tube], weights=n[tube]))
     fit = _axis_fit(d[tube], C[tube], n[tube], dstar)
-    if fit is None or not _is_tube(rg, valid, tube, fit, R, dstar) or not _circles(rg["eig"][tube], h):
+    if fit is None:
         return None
+    if not _is_tube(rg, valid, tube, fit, R, dstar) or not _circles(rg["eig"][tube], h):
+        return _pole(V, g, fit, R, dstar)
     dome = np.flatnonzero(g <= tol.ENDS_TIP_DOME_TO * dstar)
     center, Rs, rms = _sphere_fit(V[dome])
     F, N, A = faces
@@ -318,12 +332,26 @@ def _hemisphere(V, faces, p, g, h, L):
     log.debug("tip candidate %d: R %.4g, sphere %.4g (rms %.2g R), axis flatness %.2g, pole %.1f deg",
               p, R, Rs, rms / R, flatness, np.degrees(np.arccos(np.clip(u @ axis / max(lu, 1e-300), -1, 1))))
     if (abs(Rs - R) > tol.ENDS_TIP_RADIUS_TOL * R or rms > tol.ENDS_TIP_SPHERE_RMS * R
-            or flatness > tol.ENDS_TIP_AXIS_SPREAD
-            or u @ axis < np.cos(np.radians(tol.ENDS_TIP_AXIS_DEG)) * lu):
-        return None  # not a dome on the tube's axis
+            or flatness > tol.ENDS_TIP_AXIS_SPREAD):
+        return None  # not a dome on a tube
+    if u @ axis < np.cos(np.radians(tol.ENDS_TIP_AXIS_DEG)) * lu:
+        return _pole(V, g, fit, R, dstar)  # not on the tube's axis seen from the dome: retry from its pole
     ring = np.flatnonzero(rg["band"] == tube[0])
     region = np.flatnonzero(g <= tol.ENDS_ROUNDED_REGION * R)
     return {"tip": int(p), "ring": ring, "region": region, "center": center, "direction": axis, "radius": R}
+
+
+def _pole(V, g, fit, R, dstar):
+    """``("pole", q)``: the explored vertex nearest to where the rings' axis leaves the dome.
+
+    The maximum of the geodesic distance from the other ends lies off the dome's
+    pole on a side branch leaving its vessel at a wide angle; its rings are then
+    oblique on the tube. The tip test is repeated once from ``q``.
+    """
+    c, out, _, _ = fit
+    P = c + R * out  # ``c`` is the ring centroid at the equator's distance: the dome's centre
+    near = np.flatnonzero(np.isfinite(g))
+    return ("pole", int(near[np.argmin(np.linalg.norm(V[near] - P, axis=1))]))
 
 
 def _crossing(valid, narrow):
