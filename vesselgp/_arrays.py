@@ -60,3 +60,21 @@ def thinned(n, most):
     """
     step = max(1, int(np.ceil(n / most)))
     return slice(0, n, step)
+
+
+def spread_subset(n, most):
+    """Sorted ids of about ``most`` of ``range(n)``, spread evenly but aperiodically (all when ``n <= most``).
+
+    The ``k``-th pick is ``floor(frac(k * phi) * n)`` with the golden ratio ``phi``: evenly spread like
+    :func:`thinned`, but without its fixed stride, which on a structured mesh (rings of ``n_around``
+    vertices) keeps the same few angles of every ring and biases a circle fit.
+
+    Examples
+    --------
+    >>> spread_subset(10, 20).tolist(), len(spread_subset(1000, 100)) >= 95
+    ([0, 1, 2, 3, 4, 5, 6, 7, 8, 9], True)
+    """
+    if n <= most:
+        return np.arange(n)
+    k = np.arange(int(most))
+    return np.unique(np.floor(np.mod(k * 0.6180339887498949, 1.0) * n).astype(np.int64))

@@ -42,6 +42,7 @@ EPILOG = {
   vesselgp torsion rest.ply deformed.ply -o tor   twist profile, energy, shaded mesh
   vesselgp join vessel.ply --case case.json -o j  minimum-torsion end rotation, Fig. 2-4 outputs
   vesselgp twist scan_a.stl scan_b.stl -o tw     twist between two scans, side branches as landmarks
+  vesselgp batch cohort.csv -o results            a cohort on Dask (results.csv, one JSON per row)
   vesselgp clean raw.stl -o cleaned               repaired mesh + report
 
 meshes in metres, centimetres or micrometres: pass --units m|cm|um (or --scale
@@ -66,6 +67,12 @@ run 'vesselgp <command> --help' for the options of a command.""",
     "twist": """examples:
   vesselgp twist supine.stl flexed.stl -o tw
   vesselgp twist a.stl b.stl --ends-a 0 3 --ends-b 1 0 --units cm -o tw""",
+    "batch": """examples:
+  vesselgp batch cohort.csv -o results --workers 2
+  vesselgp batch cohort.csv -o results --scheduler tcp://10.0.0.5:8786 --timeout 600
+
+a cluster: 'dask scheduler' on one machine, 'dask worker tcp://HOST:8786' on each of the
+others (each with vesselgp installed and the meshes at the same paths).""",
     "clean": """examples:
   vesselgp clean segmentation.stl -o cleaned --json
   vesselgp clean voxel_staircase.stl --smooth 20 --units m -o cleaned""",
@@ -287,6 +294,21 @@ def cmd_twist(args):
     return 0
 
 
+def cmd_batch(args):
+    from . import batch
+
+    rep = batch.run(args.manifest, args.output, workers=args.workers, scheduler=args.scheduler,
+                    timeout=args.timeout, retry_errors=args.retry_errors, progress=_progress(args) or None)
+    summary = {"command": "batch", "rows": len(rep.rows), "computed": rep.computed, "skipped": rep.skipped,
+               "failed": rep.failed, "time_s": rep.time_s,
+               "results": [f for f in rep.files if not f.endswith(".json")]}
+    fails = "\n".join(f"  row {r['row']}: {r['error_type']}: {r['error']}" for r in rep.rows if r["status"] != "ok")
+    _emit(args, summary, f"{len(rep.rows)} rows: {rep.computed} computed, {rep.skipped} already done, "
+                         f"{rep.failed} failed, {rep.time_s:.1f} s" + (f"\n{fails}" if fails else "")
+                         + "\n" + "\n".join(f"  {f}" for f in summary["results"]))
+    return 0
+
+
 def cmd_clean(args):
     out = OutputFolder(args.output, [args.mesh], args.overwrite)
     rep, d = pipeline.run_clean(args.mesh, out, fmt=args.format, smooth=args.smooth, units=args.units,
@@ -477,6 +499,30 @@ def _add_twist(sub, fmt):
     p.set_defaults(func=cmd_twist)
 
 
+def _add_batch(sub, fmt):
+    """The ``batch`` subcommand."""
+    p = sub.add_parser("batch", help="run a cohort (a CSV manifest) on Dask, locally or on a cluster",
+                       description="Run every row of a manifest (CSV with a 'mesh' column, or 'rest' and "
+                                   "'deformed', or 'scan_a' and 'scan_b'; optional 'ends' and 'units') as Dask "
+                                   "tasks. Failures are recorded in their rows; a re-run skips rows already done "
+                                   "(keyed by the inputs' content hash).", formatter_class=fmt, epilog=EPILOG["batch"])
+    p.add_argument("manifest", help="the CSV manifest (paths relative to its folder)")
+    p.add_argument("-o", "--output", default="vesselgp-batch", metavar="DIR",
+                   help="output folder (default: ./%(default)s); an existing one is resumed")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--workers", type=int, metavar="N",
+                   help="worker processes of the local Dask cluster (default: the machine's cores; 0: serial, "
+                        "without Dask)")
+    g.add_argument("--scheduler", metavar="ADDRESS", help="submit to a running Dask scheduler, e.g. tcp://host:8786")
+    p.add_argument("--timeout", type=_positive_float, metavar="S",
+                   help="seconds a row may run on a worker before it is recorded as failed")
+    p.add_argument("--retry-errors", action="store_true", help="run rows that failed before again")
+    p.add_argument("--json", action="store_true", help="print a machine-readable JSON summary on stdout")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no summary text")
+    p.add_argument("-v", "--verbose", action="count", default=0, help="log progress (-vv: debug)")
+    p.set_defaults(func=cmd_batch)
+
+
 def _add_clean(sub, fmt):
     """The ``clean`` subcommand."""
     p = sub.add_parser("clean", help="repair a mesh (duplicates, non-manifold parts, small pieces)",
@@ -560,7 +606,7 @@ def build_parser():
                     "rotation-minimizing frame, minimum-torsion joining.")
     ap.add_argument("--version", action="version", version=f"vesselgp {__version__}")
     sub = ap.add_subparsers(dest="command", metavar="COMMAND")
-    for add in (_add_fit, _add_torsion, _add_join, _add_twist, _add_clean, _add_ends, _add_generate, _add_demo):
+    for add in (_add_fit, _add_torsion, _add_join, _add_twist, _add_batch, _add_clean, _add_ends, _add_generate, _add_demo):
         add(sub, fmt)
     return ap
 
@@ -588,6 +634,8 @@ def main(argv=None):
         level = logging.ERROR
     logging.basicConfig(level=level, format="vesselgp: %(message)s", stream=sys.stderr)
     logging.getLogger("vesselgp").setLevel(level)
+    for h in logging.getLogger().handlers:  # records propagated from other libraries' loggers (Dask's) too
+        h.setLevel(level)
     try:
         with pipeline.library_scale_warnings_replaced():
             return int(args.func(args) or 0)

@@ -106,11 +106,11 @@ MIN_ASPECT = 1.0
 
 #: The circle-fit correction of the deformed axis (after Eq. 6) uses at most about
 #: this many evenly thinned vertices; every vertex is still re-parameterised.
-TORSION_RECOVERY_VERTICES = 20000
+TORSION_RECOVERY_VERTICES = 12000
 #: Eq. 7's circular means use at most about this many evenly thinned vertices (the
 #: rest and deformed angles of the same subset); each bin still averages hundreds of
 #: vertices, and ``TorsionProfile.vertex_alpha`` is given for every vertex.
-TORSION_MEAN_VERTICES = 50000
+TORSION_MEAN_VERTICES = 12000
 #: Ridge on Eq. 6's system (relative to its mean diagonal): keeps it definite.
 TORSION_EQ6_RIDGE = 1e-12
 #: Circle-fit corrections of the deformed axis after Eq. 6 (they remove Eq. 1's bend bias).
@@ -451,3 +451,7 @@ TWIST_MATCH_GAP = 4.5
 TWIST_DIRECTION_MARGIN = 0.1
 #: A segment twist above this many degrees is logged as a suspect match.
 TWIST_SUSPECT_DEG = 120.0
+
+# --- cohort batches (vesselgp.batch) ---
+#: Seconds between two looks at the running tasks of a batch.
+BATCH_POLL_S = 0.05

@@ -1,0 +1,160 @@
+"""Cohort batches on Dask (issue 17): vesselgp.batch.run and ``vesselgp batch``.
+
+The truth is the serial public API on the same files: every metric must agree with it to 1e-9
+(relative), whatever ran the rows. Failures (corrupt files, a bad option, a crash, a time-out)
+are recorded in their rows and never stop the batch; a re-run does no work.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import os
+
+import numpy as np
+import pytest
+
+import vesselgp as vg
+from vesselgp import batch
+from vesselgp.cli import main
+from vesselgp.synthetic import deform_synthetic, named_curve, synthetic_vessel, twist_pair
+
+
+
+
+@pytest.fixture(scope="module")
+def cohort(tmp_path_factory):
+    """12 meshes (10 good, 2 corrupt), a torsion pair and a two-scan pair, and their manifests."""
+    d = tmp_path_factory.mktemp("cohort")
+    curves = ["arc", "straight", "s_curve", "helix"]
+    rows = ["mesh,ends,units"]
+    for i in range(10):
+        v = synthetic_vessel(curves[i % 4], radius=1.2 + 0.1 * i, n_around=16 + i, ends="open" if i % 3 else "capped")
+        vg.write_mesh(d / f"m{i}.ply", v.V, v.F)
+        rows.append(f"m{i}.ply,,")
+    (d / "corrupt.stl").write_text("solid broken\nfacet normal 0 0 1\n")
+    (d / "corrupt.ply").write_bytes(b"\x00\x01 not a mesh")
+    rows += ["corrupt.stl,,", "corrupt.ply,,"]
+    (d / "meshes.csv").write_text("\n".join(rows) + "\n")
+    v = synthetic_vessel("arc", n_around=20)
+    vg.write_mesh(d / "rest.ply", v.V, v.F)
+    vg.write_mesh(d / "def.ply", deform_synthetic(v, named_curve("s_curve"), twist=np.radians(40.0)), v.F)
+    p = twist_pair(3, twist_deg=40.0, voxel=(0.6, 0.6), side_radius=1.8)
+    vg.write_mesh(d / "scan_a.ply", p.a.V, p.a.F)
+    vg.write_mesh(d / "scan_b.ply", p.V_b, p.b.F)
+    (d / "mixed.csv").write_text("rest,deformed,scan_a,scan_b,ends\nrest.ply,def.ply,,,\n,,scan_a.ply,scan_b.ply,\n"
+                                 "rest.ply,def.ply,,,x y\n")
+    return d
+
+
+@pytest.fixture(scope="module")
+def client():
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cl, \
+            Client(cl) as c:
+        yield c
+
+
+def _no_time(rows):
+    return [{k: v for k, v in r.items() if k != "time_s"} for r in rows]
+
+
+def _serial_mesh(path):
+    V, F = vg.read_mesh(path)[:2]
+    gc = vg.fit_generalized_cylinder(V, F)
+    return gc.length, gc.mean_radius, float(np.min(gc.radii)), float(np.max(gc.radii))
+
+
+def test_local_cluster_matches_the_serial_api_and_records_failures(cohort, client, tmp_path):
+    rep = batch.run(cohort / "meshes.csv", tmp_path / "out", client=client)
+    assert [r["row"] for r in rep.rows] == list(range(12))  # manifest order
+    assert rep.computed == 12 and rep.failed == 2
+    for i, r in enumerate(rep.rows[:10]):
+        assert r["status"] == "ok", r
+        want = _serial_mesh(cohort / f"m{i}.ply")
+        got = (r["length"], r["mean_radius"], r["min_radius"], r["max_radius"])
+        assert np.allclose(got, want, rtol=1e-9, atol=0), (i, got, want)
+        assert r["n_ends"] == 2 and r["tortuosity"] >= 1.0 - 1e-9
+    for r in rep.rows[10:]:
+        assert r["status"] == "error" and r["error_type"] == "MeshReadError" and "corrupt" in r["error"]
+    with open(tmp_path / "out" / "results.csv") as fh:
+        table = list(csv.DictReader(fh))
+    assert [t["status"] for t in table] == ["ok"] * 10 + ["error"] * 2
+    assert float(table[3]["length"]) == pytest.approx(rep.rows[3]["length"], rel=1e-9)
+    import pyarrow.parquet as pq
+
+    pt = pq.read_table(tmp_path / "out" / "results.parquet").to_pylist()
+    assert [x["status"] for x in pt] == [t["status"] for t in table]
+    # every row's full result as JSON, named by its key
+    for r in rep.rows:
+        rec = json.loads((tmp_path / "out" / "rows" / f"{r['key']}.json").read_text())
+        assert rec["status"] == r["status"] and rec["inputs"][0].endswith(os.path.basename(r["inputs"]))
+
+
+def test_rerun_does_no_work_and_resumes(cohort, client, tmp_path):
+    out = tmp_path / "out"
+    first = batch.run(cohort / "meshes.csv", out, client=client)
+    stamps = {p: p.stat().st_mtime_ns for p in (out / "rows").iterdir()}
+    again = batch.run(cohort / "meshes.csv", out, client=client)
+    assert again.computed == 0 and again.skipped == 12
+    assert {p: p.stat().st_mtime_ns for p in (out / "rows").iterdir()} == stamps
+    assert again.rows == first.rows
+    # an interrupted batch: one row's result is missing, only that row runs
+    (out / "rows" / f"{first.rows[4]['key']}.json").unlink()
+    resumed = batch.run(cohort / "meshes.csv", out, client=client)
+    assert resumed.computed == 1 and _no_time(resumed.rows) == _no_time(first.rows)
+    # failed rows run again only when asked
+    assert batch.run(cohort / "meshes.csv", out, client=client, retry_errors=True).computed == 2
+
+
+def test_content_hash_not_the_name(cohort, tmp_path):
+    """Rewriting an input with other content gives the row a new key: it is computed again."""
+    d = tmp_path / "c"
+    d.mkdir()
+    v = synthetic_vessel("arc", n_around=16)
+    vg.write_mesh(d / "a.ply", v.V, v.F)
+    (d / "m.csv").write_text("mesh\na.ply\n")
+    r1 = batch.run(d / "m.csv", d / "out", workers=0)
+    vg.write_mesh(d / "a.ply", v.V * 2.0, v.F)
+    r2 = batch.run(d / "m.csv", d / "out", workers=0)
+    assert r2.computed == 1 and r2.rows[0]["key"] != r1.rows[0]["key"]
+    assert r2.rows[0]["length"] == pytest.approx(2.0 * r1.rows[0]["length"], rel=1e-6)
+
+
+def test_torsion_and_twist_rows_and_a_bad_option(cohort, client, tmp_path):
+    rep = batch.run(cohort / "mixed.csv", tmp_path / "out", client=client)
+    tor, tw, bad = rep.rows
+    V0, F0 = vg.read_mesh(cohort / "rest.ply")[:2]
+    V1, _ = vg.read_mesh(cohort / "def.ply")[:2]
+    prof = vg.measure_torsion(V0, V1, F0)
+    assert tor["status"] == "ok" and tor["total_twist_deg"] == pytest.approx(np.degrees(prof.total_twist), rel=1e-9)
+    assert tor["energy"] == pytest.approx(prof.energy, rel=1e-9)
+    Va, Fa = vg.read_mesh(cohort / "scan_a.ply")[:2]
+    Vb, Fb = vg.read_mesh(cohort / "scan_b.ply")[:2]
+    r = vg.twist_between(Va, Fa, Vb, Fb)
+    assert tw["status"] == "ok" and tw["total_twist_deg"] == pytest.approx(np.degrees(r.total_twist), rel=1e-9)
+    assert tw["n_landmarks"] == 3
+    assert bad["status"] == "error" and bad["error_type"] == "VesselError" and "ends" in bad["error"]
+
+
+def test_a_crash_and_a_timeout_are_failures(cohort, tmp_path):
+    """An exception that is not a VesselError is recorded like one; a row past its time-out is failed."""
+    rec = batch.run_row({"row": 0, "kind": "nonsense", "inputs": [], "key": "k", "ends": None, "units": None,
+                         "error": None})
+    assert rec["status"] == "error" and rec["error_type"] == "KeyError"
+    rep = batch.run(cohort / "meshes.csv", tmp_path / "out", workers=1, timeout=0.02)
+    assert rep.failed >= 10
+    assert {r["error_type"] for r in rep.rows[:10]} == {"TimeoutError"}
+
+
+def test_cli_batch_with_one_worker(cohort, tmp_path, capsys):
+    out = tmp_path / "cli"
+    assert main(["batch", str(cohort / "meshes.csv"), "-o", str(out), "--workers", "1", "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["rows"] == 12 and s["computed"] == 12 and s["failed"] == 2
+    assert (out / "results.csv").exists()
+    assert main(["batch", str(cohort / "meshes.csv"), "-o", str(out), "--workers", "1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["computed"] == 0
+    (tmp_path / "empty.csv").write_text("foo,bar\n1,2\n")
+    assert main(["batch", str(tmp_path / "empty.csv"), "-o", str(tmp_path / "x")]) == 2
+    assert "needs a 'mesh' column" in capsys.readouterr().err

@@ -1,0 +1,446 @@
+"""Cohort batches on Dask: :func:`run` (``vesselgp batch``).
+
+A manifest (CSV) lists the inputs, one row each; its columns say what a row computes:
+
+* ``mesh``: the vessel's fit (a tree when it has more than two ends): number of
+  ends and paths, centre-line length, mean, min and max radius, tortuosity
+  (path length over the distance between its ends) and statistics of the
+  curvature and Frenet torsion of each path;
+* ``rest`` and ``deformed``: :func:`vesselgp.measure_torsion` (total twist, energy
+  of Eq. 8, max ``|alpha'|``);
+* ``scan_a`` and ``scan_b``: :func:`vesselgp.twist_between` (total twist, landmarks,
+  segment twists).
+
+Optional columns: ``ends`` (``"0 1"``) and ``units`` (``mm``, ``cm``, ``m``, ``um``).
+Relative paths are relative to the manifest's folder.
+
+The rows run as tasks on ``dask.distributed``: on a ``LocalCluster`` of worker
+processes by default, or on any cluster a ``Client`` connects to. A row that
+fails (a :class:`vesselgp.VesselError`, any other exception, a worker that
+dies, or a task running longer than ``timeout``) is recorded in its row and the
+batch goes on. Results are written atomically: ``OUT/results.csv`` (one row per
+input, in manifest order; ``results.parquet`` too when pyarrow is installed) and
+one JSON per row under ``OUT/rows/``, named by the row's key: the SHA-256 of
+the input files' contents plus the kind, the options and vesselgp's version. A
+re-run skips every row whose key already has a result, so an interrupted batch
+resumes (``retry_errors`` runs the failed rows again).
+"""
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+import logging
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import tolerances as tol
+from ._version import __version__
+from .errors import OptionError, VesselError
+from .io import atomic_write, to_json, write_json
+
+log = logging.getLogger(__name__)
+
+__all__ = ["run", "BatchReport", "read_manifest", "run_row", "KINDS"]
+
+#: Manifest columns of each kind of row.
+KINDS = {"mesh": ("mesh",), "torsion": ("rest", "deformed"), "twist": ("scan_a", "scan_b")}
+#: Columns every row of results.csv starts with.
+BASE_COLUMNS = ("row", "kind", "inputs", "key", "status", "error_type", "error", "time_s")
+
+
+@dataclass(frozen=True)
+class BatchReport:
+    """What :func:`run` did.
+
+    Attributes
+    ----------
+    rows : list of dict
+        One per manifest row, in order: the columns of ``results.csv``.
+    computed, skipped, failed : int
+        Rows computed in this run, rows whose result was already in ``out``,
+        rows whose status is ``error``.
+    files : list of str
+        Files written.
+    time_s : float
+    """
+
+    rows: list
+    computed: int
+    skipped: int
+    failed: int
+    files: list
+    time_s: float
+
+
+def read_manifest(path):
+    """The manifest's rows: dicts with ``row``, ``kind``, ``inputs`` (absolute paths), ``ends``, ``units``.
+
+    A row whose kind cannot be told gets ``kind = None`` and an ``error`` (it is
+    recorded as failed, not refused).
+
+    Raises
+    ------
+    VesselError
+        The file cannot be read, or it has none of the columns of :data:`KINDS`.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise VesselError(f"cannot read manifest {path} ({exc.strerror})") from None
+    reader = csv.DictReader(io.StringIO(text))
+    cols = set(reader.fieldnames or ())
+    if not any(set(c) <= cols for c in KINDS.values()):
+        raise VesselError(f"manifest {path} needs a 'mesh' column, or 'rest' and 'deformed', or 'scan_a' and "
+                          f"'scan_b'; it has {sorted(cols)}")
+    rows = []
+    for i, r in enumerate(reader):
+        r = {k: (v or "").strip() for k, v in r.items() if k is not None}
+        kinds = [k for k, c in KINDS.items() if all(r.get(x) for x in c)]
+        row = {"row": i, "kind": kinds[0] if len(kinds) == 1 else None, "ends": r.get("ends") or None,
+               "units": r.get("units") or None, "inputs": [], "error": None}
+        if len(kinds) != 1:
+            row["error"] = (f"row {i} fills {' and '.join(kinds)}: give one kind per row" if kinds else
+                            f"row {i} names no input (mesh, rest/deformed or scan_a/scan_b)")
+        else:
+            row["inputs"] = [str((path.parent / r[c]).resolve()) for c in KINDS[kinds[0]]]
+        rows.append(row)
+    return rows
+
+
+def _file_hash(p):
+    h = hashlib.sha256()
+    with open(p, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def row_key(row):
+    """The row's key: SHA-256 of its input files' contents, its kind, options and vesselgp's version.
+
+    A missing file hashes as its name (the row then fails, and is retried once the file exists).
+    """
+    parts = [row["kind"] or "", row["ends"] or "", row["units"] or "", __version__]
+    for p in row["inputs"]:
+        parts.append(_file_hash(p) if Path(p).is_file() else f"missing:{p}")
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
+
+
+def _ends(text):
+    if text is None:
+        return None
+    try:
+        i, j = (int(x) for x in text.replace(",", " ").split())
+    except ValueError:
+        raise VesselError(f"ends must be two end indices like '0 1', got {text!r}") from None
+    return i, j
+
+
+def _stats(x, name):
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    if not len(x):
+        return {f"{name}_mean": None, f"{name}_max": None}
+    return {f"{name}_mean": float(np.mean(x)), f"{name}_max": float(np.max(x))}
+
+
+def _path_metrics(gc):
+    """Length, radii, tortuosity, curvature and Frenet torsion statistics of one path."""
+    from .curves import frenet
+
+    fr = frenet(gc.centers, length_scale=gc.mean_radius, smooth=True)
+    chord = float(np.linalg.norm(gc.centers[-1] - gc.centers[0]))
+    return {"ends": list(gc.ends), "length": gc.length, "mean_radius": gc.mean_radius,
+            "min_radius": float(np.min(gc.radii)), "max_radius": float(np.max(gc.radii)),
+            "tortuosity": gc.length / chord if chord > 0 else None,
+            **_stats(fr.curvature, "curvature"),
+            **_stats(np.abs(np.where(fr.defined, fr.torsion, np.nan)), "frenet_torsion_abs")}
+
+
+def _mesh_job(path, ends, units):
+    from .fit import fit_generalized_cylinder
+    from .mesh import vessel_ends
+    from .pipeline import read_mesh_in
+    from .tree import fit_vessel_tree
+
+    V, F, _ = read_mesh_in(path, units)
+    all_ends = vessel_ends(V, F)
+    if len(all_ends) > 2 and ends is None:
+        tree = fit_vessel_tree(V, F, ends=all_ends)
+        paths = [_path_metrics(p) for p in tree.paths]
+        lengths = np.array([b.length for b in tree.branches])
+        radii = np.array([b.mean_radius for b in tree.branches])
+        top = {"length": float(lengths.sum()), "mean_radius": float(lengths @ radii / lengths.sum()),
+               "min_radius": min(p["min_radius"] for p in paths), "max_radius": max(p["max_radius"] for p in paths)}
+    else:
+        gc = fit_generalized_cylinder(V, F, ends=ends, mesh_ends=all_ends)
+        paths = [_path_metrics(gc)]
+        top = {k: paths[0][k] for k in ("length", "mean_radius", "min_radius", "max_radius")}
+    keys = ("tortuosity", "curvature_mean", "curvature_max", "frenet_torsion_abs_mean", "frenet_torsion_abs_max")
+    agg = {}
+    for k in keys:  # over the paths; None where no path defines it (a straight vessel has no Frenet torsion)
+        vals = [p[k] for p in paths if p[k] is not None]
+        agg[k] = None if not vals else (max(vals) if k.endswith("_max") else float(np.mean(vals)))
+    return {"n_vertices": len(V), "n_ends": len(all_ends), "n_paths": len(paths), **top, **agg}, {"paths": paths}
+
+
+def _torsion_job(rest, deformed, ends, units):
+    from .pipeline import read_mesh_in
+    from .torsion import measure_torsion
+
+    V0, F0, _ = read_mesh_in(rest, units)
+    V1, F1, _ = read_mesh_in(deformed, units)
+    if V0.shape != V1.shape or not np.array_equal(F0, F1):
+        raise VesselError("rest and deformed meshes must share vertices and faces")
+    prof = measure_torsion(V0, V1, F0, ends=ends)
+    m = {"n_vertices": len(V0), "total_twist_deg": math.degrees(prof.total_twist), "energy": prof.energy,
+         "max_abs_dalpha_deg": float(np.degrees(np.max(np.abs(prof.dalpha)))), "length": prof.length,
+         "twist_per_length_deg_per_cm": math.degrees(prof.twist_per_length) * 10.0}
+    return m, {"s": prof.s, "alpha_deg": np.degrees(prof.alpha)}
+
+
+def _twist_job(a, b, ends, units):
+    from .pipeline import read_mesh_in, twist_to_dict
+    from .twist import twist_between
+
+    Va, Fa, _ = read_mesh_in(a, units)
+    Vb, Fb, _ = read_mesh_in(b, units)
+    r = twist_between(Va, Fa, Vb, Fb, ends_a=ends)
+    d = twist_to_dict(r)
+    m = {"n_landmarks": d["n_landmarks"], "total_twist_deg": d["total_twist_deg"], "length": r.length_a,
+         "mean_twist_per_length_deg_per_cm": float(np.degrees(r.total_twist) / (r.s_a[-1] - r.s_a[0]) * 10.0),
+         "n_unmatched": len(r.unmatched_a) + len(r.unmatched_b)}
+    return m, d
+
+
+_JOBS = {"mesh": _mesh_job, "torsion": _torsion_job, "twist": _twist_job}
+
+
+def run_row(row):
+    """Compute one manifest row; never raises. Returns its record (the row's JSON).
+
+    Runs on a Dask worker (or in-process). Every exception, a
+    :class:`vesselgp.VesselError` or a crash, becomes ``status = "error"`` with
+    its type and one-line message.
+    """
+    t0 = time.perf_counter()
+    rec = {"row": row["row"], "kind": row["kind"], "inputs": row["inputs"], "key": row["key"],
+           "ends": row["ends"], "units": row["units"], "version": __version__}
+    try:
+        if row["error"]:
+            raise VesselError(row["error"])
+        metrics, detail = _JOBS[row["kind"]](*row["inputs"], _ends(row["ends"]), row["units"])
+        rec.update(status="ok", error_type="", error="", metrics=metrics, detail=detail)
+    except Exception as exc:  # noqa: BLE001 - a failed row is recorded, never raised (module notes)
+        rec.update(status="error", error_type=type(exc).__name__, error=" ".join(str(exc).split()) or repr(exc),
+                   metrics={}, detail={})
+    rec["time_s"] = time.perf_counter() - t0
+    return to_json(rec)
+
+
+def _failure(row, exc_type, message):
+    return to_json({"row": row["row"], "kind": row["kind"], "inputs": row["inputs"], "key": row["key"],
+                    "ends": row["ends"], "units": row["units"], "version": __version__, "status": "error",
+                    "error_type": exc_type, "error": message, "metrics": {}, "detail": {}, "time_s": None})
+
+
+def _progress_bar(progress, total):
+    if progress is True:
+        from tqdm import tqdm
+
+        return tqdm(total=total, desc="vesselgp batch", unit="row")
+    return progress(total=total) if callable(progress) else None
+
+
+def _serial(todo, save, bar):
+    for row in todo:
+        save(row, run_row(row))
+        if bar is not None:
+            bar.update(1)
+
+
+def _on_dask(client, todo, save, bar, timeout):
+    """Submit every row, collect them as they finish; a task past ``timeout`` s of running is failed."""
+    futures = {client.submit(run_row, row, key=f"vesselgp-row-{row['key']}", pure=False): row for row in todo}
+    pending, started = set(futures), {}
+    while pending:
+        finished = [f for f in pending if f.done()]
+        for f in finished:
+            row = futures[f]
+            if f.status == "finished":
+                save(row, f.result())
+            else:  # the task raised outside run_row, or its worker died (KilledWorker), or it was cancelled
+                exc = f.exception() if f.status == "error" else None
+                save(row, _failure(row, type(exc).__name__ if exc else f.status,
+                                   " ".join(str(exc).split()) if exc else f"task {f.status}"))
+            pending.discard(f)
+            if bar is not None:
+                bar.update(1)
+        if timeout is not None and pending:
+            now = time.monotonic()
+            for keys in client.processing().values():
+                for k in keys:
+                    started.setdefault(str(k), now)
+            for f in [f for f in pending if now - started.get(str(f.key), now) > timeout]:
+                f.cancel()
+                save(futures[f], _failure(futures[f], "TimeoutError",
+                                          f"still running after {timeout:g} s on a worker; cancelled"))
+                pending.discard(f)
+                if bar is not None:
+                    bar.update(1)
+        if not finished:
+            time.sleep(tol.BATCH_POLL_S)
+
+
+def _cluster(workers):
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                           silence_logs=logging.WARNING,
+                           env={k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")})
+    return Client(cluster), cluster
+
+
+def _dask_client():
+    try:
+        from distributed import Client
+    except ImportError:
+        raise OptionError("vesselgp batch runs on dask.distributed; install it with pip install vesselgp[batch] "
+                          "(or run serially with workers=0)") from None
+    return Client
+
+
+def run(manifest, out, client=None, *, workers=None, scheduler=None, timeout=None, retry_errors=False,
+        progress=None):
+    """Run a manifest of vessels on Dask and write ``results.csv``, ``results.parquet`` and one JSON per row.
+
+    Parameters
+    ----------
+    manifest : str or os.PathLike
+        The CSV (see the module notes).
+    out : str or os.PathLike
+        Output folder (created; an existing one is resumed).
+    client : distributed.Client, optional
+        Run on this client's cluster.
+    workers : int, optional
+        Without ``client`` and ``scheduler``: worker processes of the LocalCluster started (and
+        closed) here, one thread each (default: the machine's cores); 0 runs the rows serially in
+        this process, without Dask.
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:8786``) to submit to.
+    timeout : float, optional
+        Seconds a row may run on a worker before it is recorded as a ``TimeoutError`` and
+        cancelled (Dask cannot interrupt a running function: the worker finishes it and
+        moves on).
+    retry_errors : bool
+        Run rows that failed before again (default: a re-run skips every row with a result).
+    progress : None, bool or callable
+        A tqdm progress bar (True) or a tqdm-like callable taking ``total``.
+
+    Returns
+    -------
+    BatchReport
+
+    Raises
+    ------
+    VesselError
+        An unreadable manifest, or an output folder that would overwrite an input.
+    """
+    t0 = time.perf_counter()
+    manifest = Path(manifest).resolve()
+    rows = read_manifest(manifest)
+    out = Path(out)
+    rows_dir = out / "rows"
+    outputs = {(out / n).resolve() for n in ("results.csv", "results.parquet")}
+    if manifest in outputs or any(Path(p) in outputs or Path(p).resolve().parent == rows_dir.resolve()
+                                  for r in rows for p in r["inputs"]):
+        raise VesselError(f"output folder {out} would overwrite an input; choose another -o")
+    rows_dir.mkdir(parents=True, exist_ok=True)
+    records, todo, seen = {}, [], set()
+    for row in rows:
+        row["key"] = row_key(row)
+        f = rows_dir / f"{row['key']}.json"
+        if f.is_file():
+            rec = json.loads(f.read_text())
+            if rec.get("status") == "ok" or not retry_errors:
+                records[row["key"]] = rec
+                continue
+        if row["key"] not in seen:
+            seen.add(row["key"])
+            todo.append(row)
+    files = []
+
+    def save(row, rec):
+        records[row["key"]] = rec
+        write_json(rows_dir / f"{row['key']}.json", rec)
+        files.append(str(rows_dir / f"{row['key']}.json"))
+
+    bar = _progress_bar(progress, len(todo)) if todo else None
+    try:
+        if todo and workers == 0 and client is None and scheduler is None:
+            _serial(todo, save, bar)
+        elif todo:
+            own = None
+            if client is None:
+                client, own = (_dask_client()(scheduler), None) if scheduler else _cluster(workers or _cores())
+            try:
+                _on_dask(client, todo, save, bar, timeout)
+            finally:
+                if own is not None:
+                    client.close()
+                    own.close()
+    finally:
+        if bar is not None:
+            bar.close()
+    table = [_result_row(row, records[row["key"]]) for row in rows]
+    files += _write_results(out, table)
+    failed = sum(r["status"] != "ok" for r in table)
+    log.info("batch: %d rows, %d computed, %d failed", len(rows), len(todo), failed)
+    return BatchReport(rows=table, computed=len(todo), skipped=len(rows) - len(todo), failed=failed, files=files,
+                       time_s=time.perf_counter() - t0)
+
+
+def _cores():
+    import os
+
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
+
+
+def _result_row(row, rec):
+    """One line of results.csv: the row's place in this manifest, its status and its metrics."""
+    base = {"row": row["row"], "kind": row["kind"] or "", "inputs": ";".join(row["inputs"]), "key": row["key"],
+            "status": rec["status"], "error_type": rec["error_type"], "error": rec["error"],
+            "time_s": rec["time_s"]}
+    return {**base, **rec.get("metrics", {})}
+
+
+def _write_results(out, table):
+    """results.csv (and results.parquet when pyarrow is installed), atomically."""
+    cols = list(BASE_COLUMNS)
+    for r in table:
+        cols += [k for k in r if k not in cols]
+
+    def csv_writer(fh):
+        w = csv.DictWriter(fh, fieldnames=cols, extrasaction="ignore", lineterminator="\n")
+        w.writeheader()
+        for r in table:
+            w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in cols})
+
+    atomic_write(out / "results.csv", csv_writer)
+    files = [str(out / "results.csv")]
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        log.info("pyarrow is not installed: results.parquet not written")
+        return files
+    t = pa.Table.from_pylist([{k: r.get(k) for k in cols} for r in table])
+    atomic_write(out / "results.parquet", lambda fh: pq.write_table(t, fh), binary=True)
+    return files + [str(out / "results.parquet")]
