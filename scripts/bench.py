@@ -435,6 +435,7 @@ def main(argv=None):
     ap.add_argument("--join-vessels-sizes", default="10k",
                     help="join_vessels (two vessels by end index) synthetic sizes; the real pair is always added")
     ap.add_argument("--no-twist", action="store_true", help="skip the twist_between pairs")
+    ap.add_argument("--no-batch", action="store_true", help="skip the Dask batch (12 meshes of 60k, ~1.5 min)")
     ap.add_argument("--quick", action="store_true", help="10k fit and join only (smoke test, a few seconds)")
     ap.add_argument("--repeat", type=int, default=3, help="timed repetitions below 300k vertices (median)")
     ap.add_argument("--format", default=".ply", choices=(".ply", ".stl", ".obj", ".off", ".vtp"),
@@ -508,9 +509,20 @@ def main(argv=None):
         except Exception as exc:
             errors.append(f"twist_between: {type(exc).__name__}: {exc}")
             print("    FAILED:", errors[-1], flush=True)
+    import bench_batch
+
+    batch_row = None
+    if not args.no_batch:
+        print("batch (Dask) ...", flush=True)
+        try:
+            batch_row = bench_batch.bench_batch(12)
+        except Exception as exc:
+            errors.append(f"batch: {type(exc).__name__}: {exc}")
+            print("    FAILED:", errors[-1], flush=True)
     mach["load_1min_at_end"] = round(os.getloadavg()[0], 2)
     targets = (evaluate_targets(fit_rows, join_rows) + bench_tree.tree_targets(tree_rows)
-               + bench_join_vessels.join_vessels_targets(jv_rows) + bench_twist.twist_targets(tw_rows))
+               + bench_join_vessels.join_vessels_targets(jv_rows) + bench_twist.twist_targets(tw_rows)
+               + bench_batch.batch_targets(batch_row))
     date = datetime.date.today().isoformat()
     md = markdown(fit_rows, join_rows, targets, mach, date)
     if tree_rows:
@@ -519,6 +531,8 @@ def main(argv=None):
         md += "\n\n" + bench_join_vessels.join_vessels_markdown(jv_rows)
     if tw_rows:
         md += "\n\n" + bench_twist.twist_markdown(tw_rows)
+    if batch_row:
+        md += "\n\n" + bench_batch.batch_markdown(batch_row)
     print()
     print(md)
     if errors:
@@ -526,7 +540,7 @@ def main(argv=None):
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"date": date, "machine": mach, "fit": fit_rows, "join": join_rows, "tree": tree_rows,
-                               "join_vessels": jv_rows, "twist": tw_rows, "targets": targets, "errors": errors}, indent=1))
+                               "join_vessels": jv_rows, "twist": tw_rows, "batch": batch_row, "targets": targets, "errors": errors}, indent=1))
     print(f"\nwrote {out}")
     if args.markdown:
         Path(args.markdown).write_text(md + "\n")

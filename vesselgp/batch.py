@@ -300,8 +300,18 @@ def _on_dask(client, todo, save, bar, timeout):
 
 
 def _cluster(workers):
+    import dask
     from distributed import Client, LocalCluster
 
+    # Dask's worker defaults cost numerical code dearly: a 64 KiB malloc trim threshold returns every
+    # large temporary array to the OS (page faults on each allocation), and the statistical profiler
+    # samples every 10 ms. BLAS keeps one thread per worker (Dask's default, set here explicitly).
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": tol.BATCH_MALLOC_TRIM,
+                          "distributed.worker.profile.enabled": False}):
+        return _local_cluster(Client, LocalCluster, workers)
+
+
+def _local_cluster(Client, LocalCluster, workers):
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=logging.WARNING,
                            env={k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")})

@@ -455,3 +455,6 @@ TWIST_SUSPECT_DEG = 120.0
 # --- cohort batches (vesselgp.batch) ---
 #: Seconds between two looks at the running tasks of a batch.
 BATCH_POLL_S = 0.05
+#: malloc trim threshold (bytes) of the local cluster's workers (Dask's default of 64 KiB makes numpy
+#: allocations page-fault on every call).
+BATCH_MALLOC_TRIM = 1 << 28

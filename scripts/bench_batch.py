@@ -1,0 +1,101 @@
+#!/usr/bin/env python
+"""Benchmark of cohort batches (issue #17): ``vesselgp.batch.run`` on 2 Dask workers against a serial run.
+
+A cohort of ``--n`` distinct synthetic meshes (vessel trees and single vessels of ``--vertices``
+vertices, written as PLY; distinct, or the batch would compute identical inputs once) is run three
+times into fresh output folders: serially in this process (``workers=0``, no Dask; libigl and BLAS
+free to use every core), and on LocalClusters of 1 and of 2 worker processes (one thread each, as
+Dask sets them), whose start-up is included in their times. The speed-up is serial time over the
+2-worker time (target >= 1.6 on 2 cores); the results of the runs must agree to 1e-9.
+
+Usage::
+
+    python scripts/bench_batch.py               # 16 meshes of ~60k vertices
+    python scripts/bench_batch.py --n 12 --vertices 15000
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+#: The issue's target.
+SPEEDUP_TARGET = 1.6
+
+
+def make_cohort(folder, n, vertices):
+    import vesselgp as vg
+    from vesselgp.synthetic import synthetic_tree, synthetic_vessel
+
+    rows = ["mesh"]
+    for i in range(n):
+        if i % 2:  # a different tree each time (levels 1-2, its own random layout)
+            t = synthetic_tree(1 + (i // 2) % 2, seed=i, target_vertices=vertices)
+            V, F = t.V, t.F
+        else:  # a different single vessel each time (radius)
+            r = 12.0 + 0.25 * i
+            na = max(16, int(round(np.sqrt(vertices * 2 * np.pi * r / 251.9))))
+            v = synthetic_vessel("aortic_arch", radius=r, n_around=na, remesh=False)
+            V, F = v.V, v.F
+        vg.write_mesh(Path(folder) / f"m{i:02d}.ply", V, F)
+        rows.append(f"m{i:02d}.ply")
+    (Path(folder) / "cohort.csv").write_text("\n".join(rows) + "\n")
+    return Path(folder) / "cohort.csv"
+
+
+def bench_batch(n=16, vertices=60_000, workers=2):
+    """Serial in this process (libraries free to use every core), then Dask with 1 and with ``workers`` workers."""
+    from vesselgp import batch
+
+    with tempfile.TemporaryDirectory(prefix="vesselgp-bench-batch-") as tmp:
+        manifest = make_cohort(tmp, n, vertices)
+        times, reps = {}, {}
+        for w in (0, 1, workers):
+            t0 = time.perf_counter()
+            reps[w] = batch.run(manifest, Path(tmp) / f"out{w}", workers=w)
+            times[w] = time.perf_counter() - t0
+        keys = ("length", "mean_radius", "n_ends")
+        agree = all(np.allclose([a[k] for k in keys], [b[k] for k in keys], rtol=1e-9)
+                    for a, b in zip(reps[0].rows, reps[workers].rows))
+        return {"meshes": n, "vertices": vertices, "workers": workers, "serial_s": times[0], "one_worker_s": times[1],
+                "dask_s": times[workers], "speedup": times[0] / times[workers],
+                "speedup_vs_one_worker": times[1] / times[workers],
+                "failed": sum(r.failed for r in reps.values()), "agree_1e-9": bool(agree)}
+
+
+def batch_markdown(r):
+    return ("| meshes | vertices each | serial, in-process (s) | 1 Dask worker (s) | 2 Dask workers (s) | speed-up vs "
+            "serial | vs 1 worker | results agree |\n|---:|---:|---:|---:|---:|---:|---:|---|\n"
+            f"| {r['meshes']} | ~{r['vertices']:,} | {r['serial_s']:.1f} | {r['one_worker_s']:.1f} | {r['dask_s']:.1f} | "
+            f"{r['speedup']:.2f} | {r['speedup_vs_one_worker']:.2f} | {'yes' if r['agree_1e-9'] else 'NO'} |")
+
+
+def batch_targets(r):
+    if r is None:
+        return []
+    return [{"target": f"batch speed-up, 2 workers vs serial, {r['meshes']} meshes", "value": r["speedup"],
+             "limit": SPEEDUP_TARGET, "unit": "x", "vertices": r["vertices"],
+             "status": "PASS" if r["speedup"] >= SPEEDUP_TARGET and r["agree_1e-9"] else "MISS"}]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=16)
+    ap.add_argument("--vertices", type=int, default=60_000)
+    args = ap.parse_args(argv)
+    import logging
+
+    logging.basicConfig(level=logging.ERROR)
+    r = bench_batch(args.n, args.vertices)
+    print(batch_markdown(r))
+    for t in batch_targets(r):
+        print(f"{t['target']}: {t['value']:.2f} x (>= {t['limit']}) {t['status']}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
