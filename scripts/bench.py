@@ -253,6 +253,11 @@ def bench_fit(n_target, repeat, fmt, tmpdir, do_memory=True):
     row["axis_nodes"], row["fit_iterations"] = len(gc.s), gc.iterations
     row["meter_init_s"], meter = timeit(lambda: TorsionMeter(V, F, gc), rep)
     row["meter_call_s"], prof2 = timeit(lambda: meter(Vd), max(rep, 3) if n < BIG else 1)
+    import igl
+
+    row["cotmatrix_s"], _ = timeit(lambda: igl.cotmatrix(V, F), max(rep, 3))
+    row["meter_call_over_cotmatrix"] = row["meter_call_s"] / row["cotmatrix_s"]
+    row["fit_plus_measure_over_cotmatrix"] = row["fit_plus_measure_s"] / row["cotmatrix_s"]
     row["twist_measured_deg"] = float(np.degrees(prof.total_twist))
     row["twist_error_deg"] = abs(row["twist_measured_deg"] - IMPOSED_TWIST_DEG)
     row["meter_twist_error_deg"] = abs(float(np.degrees(prof2.total_twist)) - IMPOSED_TWIST_DEG)
@@ -357,6 +362,15 @@ def evaluate_targets(fit_rows, join_rows):
             add(f"peak memory fit + measure, {fmt_size(r['vertices'])} vertices", r["kb_per_vertex"], 2.0,
                 "KB/vertex", r, "extra ru_maxrss over import+load" + (
                     "; fixed overhead dominates at this size" if r["vertices"] < 50_000 else ""))
+    # issue #16: ratios against one igl.cotmatrix of the same mesh (the machine is noisy)
+    r50 = closest(fit_rows, 50_000)
+    add("#16 TorsionMeter call / cotmatrix, ~50k vertices", r50 and r50["meter_call_over_cotmatrix"], 1.2, "x", r50)
+    add("#16 fit + measure / cotmatrix, ~200k vertices", r200 and r200["fit_plus_measure_over_cotmatrix"], 6.0, "x",
+        r200)
+    add("#16 fit + measure_torsion, ~1M vertices", r1m and r1m["fit_plus_measure_s"], 3.0, "s", r1m)
+    for r in fit_rows:
+        if "kb_per_vertex" in r and r["vertices"] >= 50_000:
+            add(f"#16 peak memory, {fmt_size(r['vertices'])} vertices", r["kb_per_vertex"], 0.7, "KB/vertex", r)
     j50 = closest(join_rows, 50_000)
     add("minimize_torsion incl. setup, ~50k join", j50 and j50["minimize_total_s"], 5.0, "s", j50)
     for r in join_rows:
@@ -427,9 +441,9 @@ def markdown(fit_rows, join_rows, targets, mach, date):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--sizes", default="10k,100k,200k,1M", help="fit/torsion vertex counts (default %(default)s)")
+    ap.add_argument("--sizes", default="10k,50k,100k,200k,1M", help="fit/torsion vertex counts (default %(default)s)")
     ap.add_argument("--join-sizes", default="10k,50k,200k", help="join vertex counts (default %(default)s)")
-    ap.add_argument("--tree-sizes", default="27k,50k,200k",
+    ap.add_argument("--tree-sizes", default="10k,27k,50k,200k",
                     help="vessel-tree vertex counts, 4 tips (default %(default)s; VMTK beside the ~27k one "
                          "when its venv exists, see scripts/bench_tree.py)")
     ap.add_argument("--join-vessels-sizes", default="10k",

@@ -158,6 +158,12 @@ MUTATIONS = {
         "        return None",
         ["tests/test_twist.py"],
     ),
+    "meter_strided_subset": (
+        "vesselgp/torsion.py",
+        "            self._sub = spread_subset(self.n, tol.TORSION_RECOVERY_VERTICES)  # bias correction on a subset",
+        "            self._sub = thinned(self.n, 8000)",
+        ["tests/test_torsion.py"],
+    ),
     "open_dome_plane_shifted": (
         "vesselgp/mesh/open_end.py",
         "    beyond = (D @ d > 0.0)",

@@ -105,7 +105,8 @@ PRINT_RESOLUTION = 1e-4
 MIN_ASPECT = 1.0
 
 #: The circle-fit correction of the deformed axis (after Eq. 6) uses at most about
-#: this many evenly thinned vertices; every vertex is still re-parameterised.
+#: this many vertices, spread aperiodically (``_arrays.spread_subset``: a fixed stride aliases
+#: with the rings of a structured mesh and biases the fit); every vertex is still re-parameterised.
 TORSION_RECOVERY_VERTICES = 12000
 #: Eq. 7's circular means use at most about this many evenly thinned vertices (the
 #: rest and deformed angles of the same subset); each bin still averages hundreds of
