@@ -206,6 +206,18 @@ def test_far_target_is_refused(coronary):
         vg.join_vessels(V, F, 1, W, Fo, 0)
 
 
+def test_compressing_target_is_refused(coronary):
+    """A target that pushes the end back halfway along its own axis: the wall would buckle."""
+    V, F, ends, L = coronary
+    Vo, Fo = vg.read_mesh(CAPPED)[:2]
+    eo = vg.vessel_ends(Vo, Fo)
+    gc = vg.fit_generalized_cylinder(V, F, ends=(0, 1))
+    mid = gc.at([0.55])[0][0]
+    W = place_other(Vo, eo[0], mid, ends[1].direction, 0.0)
+    with pytest.raises(ImplausibleJoinError, match="compressed"):
+        vg.join_vessels(V, F, 1, W, Fo, 0)
+
+
 def test_u_turn_target_is_refused(coronary):
     """A target right beside the end, facing back: refused when the free part is too short to turn."""
     V, F, ends, L = coronary

@@ -11,7 +11,8 @@ A manifest (CSV) lists the inputs, one row each; its columns say what a row comp
 * ``scan_a`` and ``scan_b``: :func:`vesselgp.twist_between` (total twist, landmarks,
   segment twists).
 
-Optional columns: ``ends`` (``"0 1"``) and ``units`` (``mm``, ``cm``, ``m``, ``um``).
+Optional columns: ``ends`` (``"0 1"``; for a ``scan_a,scan_b`` row, scan A's main-vessel ends) and
+``units`` (``mm``, ``cm``, ``m``, ``um``).
 Relative paths are relative to the manifest's folder.
 
 The rows run as tasks on ``dask.distributed``: on a ``LocalCluster`` of worker
@@ -127,7 +128,9 @@ def row_key(row):
 
     A missing file hashes as its name (the row then fails, and is retried once the file exists).
     """
-    parts = [row["kind"] or "", row["ends"] or "", row["units"] or "", __version__]
+    # a row that names no valid input is keyed by its place and message (no two collide)
+    parts = [row["kind"] or f"invalid {row['row']}: {row['error']}", row["ends"] or "", row["units"] or "",
+             __version__]
     for p in row["inputs"]:
         parts.append(_file_hash(p) if Path(p).is_file() else f"missing:{p}")
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:24]
@@ -269,7 +272,7 @@ def _serial(todo, save, bar):
 def _on_dask(client, todo, save, bar, timeout):
     """Submit every row, collect them as they finish; a task past ``timeout`` s of running is failed."""
     futures = {client.submit(run_row, row, key=f"vesselgp-row-{row['key']}", pure=False): row for row in todo}
-    pending, started = set(futures), {}
+    pending, started, last_look = set(futures), {}, -math.inf
     while pending:
         finished = [f for f in pending if f.done()]
         for f in finished:
@@ -283,9 +286,9 @@ def _on_dask(client, todo, save, bar, timeout):
             pending.discard(f)
             if bar is not None:
                 bar.update(1)
-        if timeout is not None and pending:
-            now = time.monotonic()
-            for keys in client.processing().values():
+        if timeout is not None and pending and time.monotonic() - last_look >= tol.BATCH_TIMEOUT_POLL_S:
+            now = last_look = time.monotonic()
+            for keys in client.run(_executing).values():  # running now, not merely queued on a worker
                 for k in keys:
                     started.setdefault(str(k), now)
             for f in [f for f in pending if now - started.get(str(f.key), now) > timeout]:
@@ -299,9 +302,16 @@ def _on_dask(client, todo, save, bar, timeout):
             time.sleep(tol.BATCH_POLL_S)
 
 
+def _executing(dask_worker):
+    """Keys of the tasks a worker is running (``client.run`` passes the worker)."""
+    return [str(ts.key) for ts in dask_worker.state.executing]
+
+
 def _cluster(workers):
     import dask
-    from distributed import Client, LocalCluster
+
+    Client = _dask_client()
+    from distributed import LocalCluster
 
     # Dask's worker defaults cost numerical code dearly: a 64 KiB malloc trim threshold returns every
     # large temporary array to the OS (page faults on each allocation), and the statistical profiler
@@ -312,10 +322,15 @@ def _cluster(workers):
 
 
 def _local_cluster(Client, LocalCluster, workers):
+    """A LocalCluster and its client; the cluster is closed again when the client cannot connect."""
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=logging.WARNING,
                            env={k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")})
-    return Client(cluster), cluster
+    try:
+        return Client(cluster), cluster
+    except BaseException:
+        cluster.close()
+        raise
 
 
 def _dask_client():
@@ -346,9 +361,10 @@ def run(manifest, out, client=None, *, workers=None, scheduler=None, timeout=Non
     scheduler : str, optional
         Address of a running Dask scheduler (``tcp://host:8786``) to submit to.
     timeout : float, optional
-        Seconds a row may run on a worker before it is recorded as a ``TimeoutError`` and
-        cancelled (Dask cannot interrupt a running function: the worker finishes it and
-        moves on).
+        Seconds a row may run on a worker (counted from when it starts running, not while it
+        waits in a queue) before it is recorded as a ``TimeoutError`` and cancelled (Dask cannot
+        interrupt a running function: the worker finishes it and moves on). Not used when
+        ``workers=0``.
     retry_errors : bool
         Run rows that failed before again (default: a re-run skips every row with a result).
     progress : None, bool or callable
@@ -364,6 +380,11 @@ def run(manifest, out, client=None, *, workers=None, scheduler=None, timeout=Non
         An unreadable manifest, or an output folder that would overwrite an input.
     """
     t0 = time.perf_counter()
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, (int, np.integer))
+                                or workers < 0):
+        raise OptionError(f"workers must be a whole number >= 0 (0: serial, without Dask), got {workers!r}")
+    if timeout is not None and not float(timeout) > 0:
+        raise OptionError(f"timeout must be a positive number of seconds, got {timeout!r}")
     manifest = Path(manifest).resolve()
     rows = read_manifest(manifest)
     out = Path(out)
@@ -380,7 +401,7 @@ def run(manifest, out, client=None, *, workers=None, scheduler=None, timeout=Non
         if f.is_file():
             rec = json.loads(f.read_text())
             if rec.get("status") == "ok" or not retry_errors:
-                records[row["key"]] = rec
+                records[row["key"]] = {**rec, "row": row["row"], "inputs": row["inputs"]}  # this manifest's place
                 continue
         if row["key"] not in seen:
             seen.add(row["key"])
@@ -393,20 +414,21 @@ def run(manifest, out, client=None, *, workers=None, scheduler=None, timeout=Non
         files.append(str(rows_dir / f"{row['key']}.json"))
 
     bar = _progress_bar(progress, len(todo)) if todo else None
+    created = []  # what this call opened, closed again whatever happens
     try:
         if todo and workers == 0 and client is None and scheduler is None:
             _serial(todo, save, bar)
         elif todo:
-            own = None
-            if client is None:
-                client, own = (_dask_client()(scheduler), None) if scheduler else _cluster(workers or _cores())
-            try:
-                _on_dask(client, todo, save, bar, timeout)
-            finally:
-                if own is not None:
-                    client.close()
-                    own.close()
+            if client is None and scheduler:
+                client = _dask_client()(scheduler)
+                created.append(client)
+            elif client is None:
+                client, cluster = _cluster(workers or _cores())
+                created += [client, cluster]
+            _on_dask(client, todo, save, bar, timeout)
     finally:
+        for x in created:
+            x.close()
         if bar is not None:
             bar.close()
     table = [_result_row(row, records[row["key"]]) for row in rows]

@@ -56,6 +56,7 @@ iterations. The join target is a :class:`Frame`.
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 
 import igl
@@ -373,7 +374,8 @@ class RodDeformer:
         x = np.zeros(len(self.free))
         if extent > 0.0:
             beyond = (self.free_s - s_r) * np.sign(self.s_end - s_r)  # > 0 inside the ring's range
-            x = np.clip(1.0 + beyond / (tol.DEFORM_END_BLEND * extent), 0.0, 1.0)
+            width = min(tol.DEFORM_END_BLEND * extent, abs(s_r - self.s_boundary))  # never into the held part
+            x = np.clip(1.0 + beyond / max(width, np.finfo(float).eps), 0.0, 1.0)
         self._blend = np.flatnonzero(x > 0.0)
         self._beta = (x * x * (3.0 - 2.0 * x))[self._blend]
 
@@ -571,8 +573,8 @@ class RodPlacement:
         P = self.axis_points[d.nodes]
         e = np.diff(P, axis=0)
         ln = np.linalg.norm(e, axis=1)
-        if len(ln) < 2 or not np.all(ln > 0):
-            return 0.0, float(d.gc.dense_s[d.nodes[0]])
+        if len(ln) < 2 or not np.all(ln > 0) or not np.all(np.isfinite(P)):
+            return math.inf, float(d.gc.dense_s[d.nodes[0]])  # a degenerate axis is not a plausible bend
         c = np.einsum("ij,ij->i", e[1:], e[:-1]) / (ln[1:] * ln[:-1])
         kappa = np.arccos(np.clip(c, -1.0, 1.0)) / (0.5 * (ln[1:] + ln[:-1]))
         s = d.gc.dense_s[d.nodes[1:-1]]

@@ -15,11 +15,13 @@ Everything a join needs is derived from the two meshes and two end indices
   direction (the joined vessel continues into the other one);
 * angle 0 is a visible anchor: ``moving_normal`` (a direction across the
   moving end) lands on ``target_normal`` (across the other end). By default
-  both are the world axis (x, y or z) most perpendicular to the end's
-  direction, projected into the end's plane, so that two ends facing each
-  other with no roll are at angle 0;
+  ``moving_normal`` is the world axis (x, y or z) most perpendicular to the
+  moving end's direction, projected into its plane, and ``target_normal`` is
+  its image under the least rotation that takes the moving end's direction
+  onto the target tangent, so a join that only bends the end is at angle 0;
 * before the search the join is checked for plausibility: an axial stretch of
-  the free part above ``max_stretch`` or a bend tighter than the radius allows
+  the free part above ``max_stretch`` (or a compression below its inverse) or
+  a bend tighter than the radius allows
   (curvature times radius above ``tolerances.JOIN_MAX_BEND``) is refused, a
   stretch above ``tolerances.JOIN_STRETCH_WARN`` is warned about;
 * :func:`vesselgp.minimize_torsion` finds the end rotation of least torsion
@@ -44,6 +46,7 @@ from .tree import fit_vessel_tree
 from .join import JoinProblem, minimize_torsion
 from .mesh import MeshTopology, open_end, stitch, vessel_ends
 from .mesh._ends_format import end_listing
+from .rotations import minimal_rotation
 
 log = logging.getLogger(__name__)
 
@@ -124,6 +127,12 @@ def _plausible(problem, max_stretch):
     """Refuse a target the vessel cannot reach without tearing or folding; warn when it is a stretch."""
     pl, gc = problem.placement, problem.gc
     st = pl.axial_stretch
+    if st < 1.0 / max_stretch:
+        raise ImplausibleJoinError(
+            f"the target needs the free part of the vessel compressed to {st:.2f}x its length along the axis "
+            f"(at most 1/max_stretch = {1.0 / max_stretch:.2f}); the wall would buckle: move the other vessel "
+            "farther away or hold more (hold=)"
+        )
     if st > max_stretch:
         raise ImplausibleJoinError(
             f"the target needs the free part of the vessel stretched {st:.2f}x along its axis (max_stretch "
@@ -183,6 +192,9 @@ class VesselJoin:
             raise ImplausibleJoinError(f"max_stretch must be at least 1 (no stretch), got {max_stretch!r}")
         ends = vessel_ends(V, F)
         ends_o = vessel_ends(Vo, Fo)
+        if len(ends) < 2:
+            raise EndsError(f"the moving vessel has {len(ends)} end(s); a vessel to move needs one end to hold "
+                            "and one to join (ends: " + end_listing(ends) + ")")
         _pick(ends, end, "end")
         _pick(ends_o, other_end, "other_end")
         W, G, kept, new_ends, j = _opened(V, F, ends, end, "end")
@@ -196,7 +208,9 @@ class VesselJoin:
             gc, fixed = self._tree_path(W, G, new_ends, j, hold, kept, len(V))
         tangent = -np.asarray(e_other.direction, float)
         mn = default_normal(e_move.direction) if moving_normal is None else moving_normal
-        tn = default_normal(tangent) if target_normal is None else target_normal
+        # the target normal: the moving anchor carried by the least rotation onto the target tangent
+        tn = (minimal_rotation(e_move.direction, tangent).apply(np.asarray(mn, float)) if target_normal is None
+              else target_normal)
         self.problem = JoinProblem(W, G, fixed, np.asarray(e_move.loop, np.int64),
                                    Frame(e_other.center, tangent, tn), method=method, gc=gc, moving_normal=mn)
         _plausible(self.problem, max_stretch)
@@ -281,7 +295,8 @@ def join_vessels(V, F, end, V_other, F_other, other_end, *, hold=None, method="r
     moving_normal : (3,) float64, optional
         Anchor across the moving end (default :func:`default_normal` of its direction).
     target_normal : (3,) float64, optional
-        Where it lands at angle 0 (default :func:`default_normal` of the other end's direction).
+        Where it lands at angle 0 (default: ``moving_normal`` turned by the least rotation
+        from the moving end's direction onto the target tangent).
 
     See Also
     --------
@@ -301,7 +316,7 @@ def join_vessels(V, F, end, V_other, F_other, other_end, *, hold=None, method="r
     EndsError
         Bad end indices or a bad ``hold``.
     ImplausibleJoinError
-        The target needs too much stretch or too tight a bend.
+        The target needs too much stretch or compression, or too tight a bend.
     InvalidMeshError
         The stitched mesh is not one connected piece.
 

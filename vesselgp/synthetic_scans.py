@@ -105,7 +105,7 @@ def _rmf_ode(ctrl, U0):
         dT = (d2 - (d2 @ T) * T) / sp
         return -(U @ dT) * T
 
-    sol = solve_ivp(rhs, (0.0, 1.0), U0, rtol=1e-11, atol=1e-12, method="DOP853")
+    sol = solve_ivp(rhs, (0.0, 1.0), U0, rtol=tol.SCAN_PAIR_RMF_RTOL, atol=tol.SCAN_PAIR_RMF_ATOL, method="DOP853")
     U = sol.y[:, -1]
     T = _eval(a, [1.0], 1)[0]
     T /= np.linalg.norm(T)

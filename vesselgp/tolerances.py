@@ -211,6 +211,9 @@ TREE_TIP_RADII = 1.5
 TREE_WELL_COMPOSED_ROUNDS = 50
 #: Smooth-union width of the synthetic scan pairs' junctions, in main radii (vesselgp.synthetic_scans).
 SCAN_PAIR_BLEND = 0.25
+#: Relative and absolute tolerances of the truth RMF's ODE integration (scipy solve_ivp, DOP853).
+SCAN_PAIR_RMF_RTOL = 1e-11
+SCAN_PAIR_RMF_ATOL = 1e-12
 
 # --- deformation and joining (vesselgp.deform, vesselgp.join) ---------------
 #: ARAP iterations refining the rod placement (method "rod_arap"); the rod start is
@@ -456,6 +459,8 @@ TWIST_SUSPECT_DEG = 120.0
 # --- cohort batches (vesselgp.batch) ---
 #: Seconds between two looks at the running tasks of a batch.
 BATCH_POLL_S = 0.05
+#: Seconds between two looks at what the workers are running, for the per-row time-out.
+BATCH_TIMEOUT_POLL_S = 0.25
 #: malloc trim threshold (bytes) of the local cluster's workers (Dask's default of 64 KiB makes numpy
 #: allocations page-fault on every call).
 BATCH_MALLOC_TRIM = 1 << 28

@@ -13,7 +13,8 @@ do, from the side branches used as fiducials:
    added RMF rotation (up to 3.4 degrees per segment on the synthetic pairs,
    against 1.1 with the single fit). ``s`` is arc length from ``ends[0]``.
 2. **Landmarks.** Every branch of the tree that leaves the main path is a
-   landmark at its junction point, projected onto the main axis for its ``s``.
+   landmark at its junction point, projected onto the main axis for its ``s``
+   (at a junction with two side branches, the wider one, with a warning).
 3. **Azimuth.** The side branch's initial direction is the chord of its axis
    past the junction zone (from ``TWIST_DIR_START`` main radii to that plus
    ``TWIST_DIR_SPAN`` branch radii along it); its azimuth is the angle of that
@@ -199,7 +200,7 @@ def _project_s(main, P):
     for a in (max(k - 1, 0), k):
         b = min(a + 1, len(X) - 1)
         d = X[b] - X[a]
-        t = float(np.clip((P - X[a]) @ d / max(d @ d, np.finfo(float).tiny), 0.0, 1.0))
+        t = float(np.clip((P - X[a]) @ d / (d @ d), 0.0, 1.0)) if d @ d > 0 else 0.0
         dist = float(np.linalg.norm(X[a] + t * d - P))
         if dist < best[0]:
             best = (dist, main.dense_s[a] + t * (main.dense_s[b] - main.dense_s[a]))
@@ -240,9 +241,11 @@ def scan_landmarks(V, F, ends=None):
         r_main = float(main.radius_at([s / main.length])[0])
         _, fr = main.at([s / main.length])
         T, U, W = fr[0]
-        for c in np.flatnonzero(tree.parent == b):
-            if int(c) in on_main:
-                continue
+        sides = [int(c) for c in np.flatnonzero(tree.parent == b) if int(c) not in on_main]
+        if len(sides) > 1:  # a trifurcation: one landmark per junction, the widest side branch
+            log.warning("junction at s = %.3g has %d side branches; the widest is its landmark", s, len(sides))
+            sides = [max(sides, key=lambda c: tree.branches[c].mean_radius)]
+        for c in sides:
             side = tree.branches[int(c)]
             a1 = min(tol.TWIST_DIR_START * r_main, 0.5 * side.length)
             a2 = min(a1 + tol.TWIST_DIR_SPAN * side.mean_radius, side.length)
@@ -348,6 +351,9 @@ def twist_between(V_a, F_a, V_b, F_b, *, ends_a=None, ends_b=None):
         log.warning("twist_between: segment %d twists %.0f deg; check the landmark match there", q,
                     math.degrees(seg[q]))
     la, lb = np.diff(A.s[ia]), np.diff(B.s[ib])
+    if not (np.all(la > 0) and np.all(lb > 0)):
+        raise EndsError("two matched landmarks sit at the same place on the main axis; the twist between them "
+                        "is undefined (check the side branches of both scans)")
     return ScanTwist(
         landmarks_a=A.points[ia], landmarks_b=B.points[ib], s_a=A.s[ia], s_b=B.s[ib],
         azimuth_a=A.azimuth[ia], azimuth_b=B.azimuth[ib], segment_twist=seg, segment_length_a=la,
