@@ -396,3 +396,20 @@ def test_stretch_warning_and_a_rounded_other_end(caplog):
     assert top.face_components[0] == 1 and top.is_edge_manifold
     assert np.linalg.norm(res.V[res.moving].mean(0) - te[k].center) < 0.2 * te[k].radius
     assert abs(np.degrees(res.profile.total_twist)) <= 1.0
+
+
+def test_edge_stretch_of_a_uniform_scaling(capped_join):
+    """Every edge of the mesh scaled by 1.7 about any point: the largest edge stretch is 1.7."""
+    join, _ = capped_join
+    d = join.problem.deformer
+    assert d.edge_stretch(1.7 * d.V + [3.0, -1.0, 2.0]) == pytest.approx(1.7, rel=1e-12)
+    assert d.edge_stretch(d.V) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_edge_stretch_of_a_one_axis_scaling(capped_join):
+    """Scaling x by 1.7: each edge grows by sqrt(1.7^2 ex^2 + ey^2 + ez^2) / |e|, computed face by face."""
+    join, _ = capped_join
+    d = join.problem.deformer
+    e = np.concatenate([d.V[d.F[:, (k + 1) % 3]] - d.V[d.F[:, k]] for k in range(3)])
+    want = np.max(np.linalg.norm(e * [1.7, 1.0, 1.0], axis=1) / np.linalg.norm(e, axis=1))
+    assert d.edge_stretch(d.V * [1.7, 1.0, 1.0]) == pytest.approx(want, rel=1e-12)

@@ -69,6 +69,7 @@ from .axis import interp_frames
 from .curves import rotation_minimizing_frames, transport_angle
 from .errors import EndsError, FrameError, MismatchError, OptionError
 from .fit import GeneralizedCylinder, fit_generalized_cylinder
+from .mesh import MeshTopology
 from .rotations import minimal_rotation, rotate, unit, unit_rows
 
 log = logging.getLogger(__name__)
@@ -295,6 +296,7 @@ class RodDeformer:
         self.end_tangent = self.sign * fe[0, 0]  # outward
         self.end_normal = fe[0, 1]
         self._factorise(arap_iterations)
+        self._edges = self._edge_rest = None  # for edge_stretch, built on first use
         log.debug("RodDeformer: method %s, free part %.3g (%.1f radii), %d free vertices",
                   method, self.free_length, self.free_length / gc.mean_radius, len(self.free))
 
@@ -381,12 +383,10 @@ class RodDeformer:
 
     def edge_stretch(self, X):
         """Largest deformed-over-rest edge length of deformed vertices ``X`` ((n, 3) float64)."""
-        if not hasattr(self, "_edges"):
-            E = np.unique(np.sort(np.concatenate([self.F[:, [0, 1]], self.F[:, [1, 2]], self.F[:, [2, 0]]]),
-                                  axis=1), axis=0)
-            ln = np.linalg.norm(self.V[E[:, 0]] - self.V[E[:, 1]], axis=1)
-            keep = ln > 0
-            self._edges, self._edge_rest = E[keep], ln[keep]
+        if self._edges is None:  # the mesh's edge table, once (MeshTopology's single sort)
+            top = MeshTopology(self.F, self.n)
+            ln = top.edge_lengths(self.V)
+            self._edges, self._edge_rest = top.edges[ln > 0], ln[ln > 0]
         E = self._edges
         return float(np.max(np.linalg.norm(X[E[:, 0]] - X[E[:, 1]], axis=1) / self._edge_rest))
 

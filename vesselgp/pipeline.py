@@ -567,9 +567,9 @@ ANGLE_REFERENCE = (
 )
 
 
-def _marks(problem, angle):
-    """Lines drawn over a join render: the end ring, the target normal and the moving anchor's image."""
-    X = problem.deform(angle)
+def _marks(problem, X, angle):
+    """Lines drawn over a join render of ``X`` (the deformation at ``angle``): the end ring, the target
+    normal and the moving anchor's image."""
     ring = X[problem.moving]
     ring = np.concatenate([ring, ring[:1]])
     o = problem.target.origin
@@ -594,7 +594,7 @@ def _write_join_states(out, F, states, m, others, name, large_deg, prefix, rende
             render_mesh(out / f"{key}.png", X, F, al, vmin=-m, vmax=m, others=others, cbar_label=label,
                         title=f"{name}: {what}\nturned {wrap_deg(ang):.1f}\u00b0 from the anchor "
                               f"(ticks: target normal, anchor), E = {prof.energy:.3g}",
-                        lines=_marks(problem, ang))
+                        lines=_marks(problem, X, ang))
             plot_torsion_profile(out / f"profile_{key}.png", prof)
             files[f"{key}_png"] = prefix + f"{key}.png"
             files[f"profile_{key}_png"] = prefix + f"profile_{key}.png"
