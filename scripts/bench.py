@@ -529,7 +529,7 @@ def main(argv=None):
     if not args.no_batch:
         print("batch (Dask) ...", flush=True)
         try:
-            batch_row = bench_batch.bench_batch(12)
+            batch_row = bench_batch.bench_batch(16)
         except Exception as exc:
             errors.append(f"batch: {type(exc).__name__}: {exc}")
             print("    FAILED:", errors[-1], flush=True)

@@ -25,6 +25,18 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    "circle_fit_regulariser_weight": (
+        "vesselgp/axis.py",
+        "Q = np.concatenate([E[:-2], -2.0 * E[1:-1], E[2:]], axis=1)",
+        "Q = np.concatenate([E[:-2], -1.0 * E[1:-1], E[2:]], axis=1)",
+        ["tests/test_fit.py"],
+    ),
+    "circle_fit_hat_weights_swapped": (
+        "vesselgp/axis.py",
+        "G = np.concatenate([c * (1.0 - t)[:, None], c * t[:, None]], axis=1)",
+        "G = np.concatenate([c * t[:, None], c * (1.0 - t)[:, None]], axis=1)",
+        ["tests/test_fit.py"],
+    ),
     "eq7_sign": (
         "vesselgp/torsion.py",
         "dtheta = wrap_angle(theta - self._theta0)",

@@ -163,3 +163,23 @@ def test_cli_batch_with_one_worker(cohort, tmp_path, capsys):
     (tmp_path / "empty.csv").write_text("foo,bar\n1,2\n")
     assert main(["batch", str(tmp_path / "empty.csv"), "-o", str(tmp_path / "x")]) == 2
     assert "needs a 'mesh' column" in capsys.readouterr().err
+
+
+def _worker_environment():
+    return {k: os.environ.get(k) for k in ("MALLOC_TRIM_THRESHOLD_", "MALLOC_MMAP_THRESHOLD_", "OMP_NUM_THREADS")}
+
+
+def test_local_cluster_workers_keep_the_allocator_defaults():
+    # Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536, which switches off glibc's dynamic mmap threshold
+    # (every large numpy array page-faults: a tree fit 1.6x slower), and writes it into this process's
+    # environment, from where the next cluster's nannies take it (the module's cluster ran before)
+    before = {k: os.environ.get(k) for k in ("MALLOC_TRIM_THRESHOLD_", "MALLOC_MMAP_THRESHOLD_")}
+    client, cluster = batch._cluster(1)
+    try:
+        env = list(client.run(_worker_environment).values())
+    finally:
+        client.close()
+        cluster.close()
+    big = str(vg.tolerances.BATCH_MALLOC_THRESHOLD)
+    assert env == [{"MALLOC_TRIM_THRESHOLD_": big, "MALLOC_MMAP_THRESHOLD_": big, "OMP_NUM_THREADS": "1"}]
+    assert {k: os.environ.get(k) for k in before} == before  # this process's environment is put back

@@ -103,7 +103,8 @@ class Axis:
     def __init__(self, nodes, initial_normal=None, samples_per_node=None):
         spn = tol.GC_SAMPLES_PER_NODE if samples_per_node is None else int(samples_per_node)
         M = spn * (len(nodes) - 1) + 1
-        self.points, T, self.length = resample_arclength(nodes, M, with_tangents=True)
+        over = -(-tol.GC_ARCLENGTH_CHORDS_PER_NODE * (len(nodes) - 1) // M)  # ceil
+        self.points, T, self.length = resample_arclength(nodes, M, with_tangents=True, oversample=max(over, 1))
         self.s = np.linspace(0.0, 1.0, M)
         if initial_normal is None:
             initial_normal = _default_normal(self.points, T[0])
@@ -219,6 +220,18 @@ def difference_matrix(K, order):
     return D
 
 
+#: Lower-triangle pairs (a >= b) of the six unknowns one residual or one second difference touches.
+_PAIR_A, _PAIR_B = np.tril_indices(6)
+_PAIR_00, _PAIR_33 = 0, 9  # positions of the pairs (0, 0) and (3, 3) among them
+
+
+def _segment_sums(j, vals, K):
+    """Sum of the rows of ``vals`` (n, c) into the ``K - 1`` segments ``j``: (K - 1, c), one bincount."""
+    c = vals.shape[1]
+    idx = (j * c)[:, None] + np.arange(c)
+    return np.bincount(idx.ravel(), vals.ravel(), minlength=c * (K - 1)).reshape(K - 1, c)
+
+
 def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_ends=True):
     """One linear solve of the area-weighted Kasa circle fit with hat functions in s.
 
@@ -229,7 +242,9 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
 
     The normal equations are assembled straight into banded form (unknowns
     interleaved per node, bandwidth 7) and solved by banded Cholesky: O(n + K)
-    with no sparse-matrix algebra.
+    with no sparse-matrix algebra. Each residual touches six unknowns (three at
+    each node of its segment), so the data term is the 21 lower-triangle products
+    of six coefficients, summed per segment by one ``bincount``.
 
     Returns the corrections as 3-D vectors, (K, 3).
     """
@@ -238,40 +253,29 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
     j, t = hat(s, K)
     x, y = local[:, 1], local[:, 2]
     sw = np.sqrt(w) / (2.0 * rscale)
-    c = (2 * x * sw, 2 * y * sw, sw)  # coefficients of cx, cy, d in each residual
+    c = np.stack([2 * x * sw, 2 * y * sw, sw], axis=1)  # coefficients of cx, cy, d in each residual
+    G = np.concatenate([c * (1.0 - t)[:, None], c * t[:, None]], axis=1)  # at nodes j and j + 1
     b = (x * x + y * y) * sw
-    phi = (1.0 - t, t)  # hat weights of nodes j and j + 1
-    rows, cols, vals = [], [], []
+    S = _segment_sums(j, G[:, _PAIR_A] * G[:, _PAIR_B], K)
+    R = _segment_sums(j, G * b[:, None], K)
     rhs = np.zeros(n3)
-    jj = np.arange(K - 1)
-    for p in range(2):
-        for a in range(3):
-            rhs[3 * (jj + p) + a] += np.bincount(j, c[a] * phi[p] * b, minlength=K - 1)
-            for q in range(2):
-                for bb in range(3):
-                    if 3 * p + a < 3 * q + bb:
-                        continue  # lower triangle only
-                    rows.append(3 * (jj + p) + a)
-                    cols.append(3 * (jj + q) + bb)
-                    vals.append(np.bincount(j, c[a] * c[bb] * phi[p] * phi[q], minlength=K - 1))
-    Wbar = float(_node_diagonal(j, c[0], phi, K).mean())
+    rhs[: 3 * (K - 1)] += R[:, :3].ravel()
+    rhs[3:] += R[:, 3:].ravel()
+    seg = 3 * np.arange(K - 1)[:, None]
+    rows, cols, vals = [(seg + _PAIR_A).ravel()], [(seg + _PAIR_B).ravel()], [S.ravel()]
+    Wbar = float(S[:, _PAIR_00].sum() + S[:, _PAIR_33].sum()) / K  # mean data weight on a node's cx
     # Eq. 2's lambda on the second difference of the corrected axis, sum_m |D2 (C + Delta)|^2
-    # with Delta_k = cx_k U_k + cy_k V_k
-    E = (axis_frames_nodes[:, 1], axis_frames_nodes[:, 2])
+    # with Delta_k = cx_k U_k + cy_k V_k: second difference m touches cx, cy of nodes m, m+1, m+2
+    E = axis_frames_nodes[:, 1:3]  # (K, 2, 3): U and V at each node
     d2c = centers[:-2] - 2 * centers[1:-1] + centers[2:]
-    m = np.arange(K - 2)
-    wts = (1.0, -2.0, 1.0)
+    Q = np.concatenate([E[:-2], -2.0 * E[1:-1], E[2:]], axis=1)  # (K - 2, 6, 3)
     lw = lam * Wbar
-    for p in range(3):
-        for a in range(2):
-            rhs[3 * (m + p) + a] -= lw * wts[p] * np.einsum("ij,ij->i", E[a][m + p], d2c)
-            for q in range(3):
-                for bb in range(2):
-                    if 3 * p + a < 3 * q + bb:
-                        continue
-                    rows.append(3 * (m + p) + a)
-                    cols.append(3 * (m + q) + bb)
-                    vals.append(lw * wts[p] * wts[q] * np.einsum("ij,ij->i", E[a][m + p], E[bb][m + q]))
+    gram = np.einsum("mai,mbi->mab", Q, Q)[:, _PAIR_A, _PAIR_B]
+    red = 3 * np.arange(K - 2)[:, None] + np.array([0, 1, 3, 4, 6, 7])  # unknown index of each of the six
+    np.add.at(rhs, red.ravel(), (-lw * np.einsum("mai,mi->ma", Q, d2c)).ravel())
+    rows.append(red[:, _PAIR_A].ravel())
+    cols.append(red[:, _PAIR_B].ravel())
+    vals.append(lw * gram.ravel())
     # keep d well posed where a node has no data (d is an area: its weight is
     # divided by rscale^2 so that the fit is the same in any length unit)
     ed = tol.GC_AREA_RIDGE * Wbar / rscale**2
@@ -288,15 +292,7 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
     bw = int((rows - cols).max())
     ab = np.bincount((rows - cols) * n3 + cols, vals, minlength=(bw + 1) * n3).reshape(bw + 1, n3)
     sol = solve_banded_spd(ab, rhs)
-    return sol[0::3, None] * E[0] + sol[1::3, None] * E[1]
-
-
-def _node_diagonal(j, c0, phi, K):
-    """Diagonal of the cx block of the data term: sum of (c0 phi)^2 onto each node."""
-    d = np.zeros(K)
-    d[:-1] += np.bincount(j, (c0 * phi[0]) ** 2, minlength=K - 1)
-    d[1:] += np.bincount(j, (c0 * phi[1]) ** 2, minlength=K - 1)
-    return d
+    return sol[0::3, None] * E[:, 0] + sol[1::3, None] * E[:, 1]
 
 
 def checked_solution(x):

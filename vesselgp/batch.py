@@ -34,6 +34,7 @@ import io
 import json
 import logging
 import math
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -269,9 +270,17 @@ def _serial(todo, save, bar):
             bar.update(1)
 
 
+def _input_bytes(row):
+    """Total size of a row's input files (a missing one counts 0: its row fails on the worker)."""
+    return sum(Path(p).stat().st_size for p in row["inputs"] if Path(p).is_file())
+
+
 def _on_dask(client, todo, save, bar, timeout):
     """Submit every row, collect them as they finish; a task past ``timeout`` s of running is failed."""
-    futures = {client.submit(run_row, row, key=f"vesselgp-row-{row['key']}", pure=False): row for row in todo}
+    # largest inputs first (Dask runs higher priorities first): the last rows to finish are then short
+    # ones, and the workers idle less at the end of the batch
+    futures = {client.submit(run_row, row, key=f"vesselgp-row-{row['key']}", pure=False, priority=_input_bytes(row)):
+               row for row in todo}
     pending, started, last_look = set(futures), {}, -math.inf
     while pending:
         finished = [f for f in pending if f.done()]
@@ -313,17 +322,32 @@ def _cluster(workers):
     Client = _dask_client()
     from distributed import LocalCluster
 
-    # Dask's worker defaults cost numerical code dearly: a 64 KiB malloc trim threshold returns every
-    # large temporary array to the OS (page faults on each allocation), and the statistical profiler
-    # samples every 10 ms. BLAS keeps one thread per worker (Dask's default, set here explicitly).
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": tol.BATCH_MALLOC_TRIM,
-                          "distributed.worker.profile.enabled": False}):
-        return _local_cluster(Client, LocalCluster, workers)
+    # Dask's worker defaults cost numerical code dearly. Its MALLOC_TRIM_THRESHOLD_ (64 KiB) switches
+    # off glibc's dynamic mmap threshold, so every numpy array above 128 KiB is mmapped and unmapped
+    # again and page-faults on each use (a 60k tree fit: 10x the page faults, 1.6x the time). The
+    # workers get large trim and mmap thresholds instead. A nanny takes these variables from this
+    # process's environment before its configuration (and writes them into it), so they are set
+    # here while the workers start and put back afterwards. The statistical profiler (every 10 ms)
+    # is off; BLAS keeps one thread per worker (Dask's default, also set below).
+    malloc = {k: str(tol.BATCH_MALLOC_THRESHOLD) for k in ("MALLOC_TRIM_THRESHOLD_", "MALLOC_MMAP_THRESHOLD_")}
+    environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **malloc}
+    saved = {k: os.environ.get(k) for k in malloc}
+    os.environ.update(malloc)
+    try:
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
+                              "distributed.worker.profile.enabled": False}):
+            return _local_cluster(Client, LocalCluster, workers)
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 def _local_cluster(Client, LocalCluster, workers):
     """A LocalCluster and its client; the cluster is closed again when the client cannot connect."""
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                            silence_logs=logging.WARNING,
                            env={k: "1" for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")})
     try:

@@ -90,6 +90,9 @@ GC_MAX_FIT_VERTICES = 60000
 GC_NEWTON_STEPS = 3
 #: Dense samples of the axis per node spacing, used to project vertices onto the axis.
 GC_SAMPLES_PER_NODE = 8
+#: The axis spline's arc length is measured on this many chords per node spacing (relative
+#: chord error (kappa h)^2 / 24, below 1e-7 for a bend of radius 3 r at h = r / 64).
+GC_ARCLENGTH_CHORDS_PER_NODE = 32
 
 #: The axis check (vesselgp.inside): surface samples (an evenly thinned vertex subset)
 #: for the point-cloud winding number and the wall distance.
@@ -461,6 +464,7 @@ TWIST_SUSPECT_DEG = 120.0
 BATCH_POLL_S = 0.05
 #: Seconds between two looks at what the workers are running, for the per-row time-out.
 BATCH_TIMEOUT_POLL_S = 0.25
-#: malloc trim threshold (bytes) of the local cluster's workers (Dask's default of 64 KiB makes numpy
-#: allocations page-fault on every call).
-BATCH_MALLOC_TRIM = 1 << 28
+#: malloc trim and mmap thresholds (bytes) of the local cluster's workers: arrays up to this size
+#: come from the heap and are reused (Dask's 64 KiB trim threshold makes every large numpy array
+#: page-fault); a worker keeps at most this much freed memory.
+BATCH_MALLOC_THRESHOLD = 1 << 28
