@@ -495,10 +495,11 @@ def main(argv=None):
 
     tree_rows = []
     vm = bench_tree.DEFAULT_VMTK if bench_tree.DEFAULT_VMTK.exists() else None
-    for n in [parse_size(s) for s in args.tree_sizes.split(",") if s.strip()]:
-        print(f"tree ~{fmt_size(n)} ...", flush=True)
+    tree_jobs = [(parse_size(s), "exact") for s in args.tree_sizes.split(",") if s.strip()] + [(27_000, "staircase")]
+    for n, surface in tree_jobs:
+        print(f"tree ~{fmt_size(n)} ({surface}) ...", flush=True)
         try:
-            tree_rows.append(bench_tree.bench_tree(n, args.repeat, vm if n <= 30_000 else None))
+            tree_rows.append(bench_tree.bench_tree(n, args.repeat, vm if n <= 30_000 else None, surface))
             print("   ", {k: (round(v, 4) if isinstance(v, float) else v) for k, v in tree_rows[-1].items()}, flush=True)
         except Exception as exc:
             errors.append(f"tree {fmt_size(n)}: {type(exc).__name__}: {exc}")

@@ -24,6 +24,9 @@ from _data import REAL
 README_AXIS = {"4 tips": (0.92, 0.037), "3 tips": (1.1, 0.035), "8 tips": (0.96, 0.038)}
 README_RADIUS_MAX = {"4 tips": 0.92, "3 tips": 0.45, "8 tips": 3.65}  # % worst radius error, same stretch
 README_JUNCTION = 0.27        # junction distance from the true one, in parent end radii
+# README "segmentation-like" row: the voxel staircase of the 4-tip tree (voxel 0.4) smoothed by
+# clean_mesh(smooth=10); worst and worst mean path-axis error (% r), same stretch
+README_STAIRCASE_AXIS = (3.23, 0.74)
 
 
 @pytest.fixture(scope="module", params=list(README_AXIS))
@@ -75,6 +78,25 @@ def test_path_axes_lie_on_the_true_centre_lines(fitted):
         tip = t.truth.ends[_truth_end(t, tree.ends[p.ends[1]])]
         assert np.linalg.norm(P[0] - t.truth.ends[0].center) < 0.05 * t.truth.ends[0].radius
         assert np.linalg.norm(P[-1] - tip.center) < 0.5 * tip.radius
+
+
+def test_paths_of_a_smoothed_voxel_staircase_lie_on_the_true_centre_lines():
+    """A segmentation-like surface: the voxel boundary of the tree, smoothed as the staircase error advises.
+
+    The truth is the tree's exact centre lines (its Bezier curves), not a fit of the smooth surface.
+    """
+    t = synthetic_tree(levels=2, voxel=0.4, staircase=True)
+    V, F, _ = vesselgp.clean_mesh(t.V, t.F, smooth=10)
+    tree = fit_vessel_tree(V, F)
+    assert len(tree.paths) == len(t.truth.tips)
+    worst, mean = README_STAIRCASE_AXIS
+    for p in tree.paths:
+        d, r, _, _ = t.truth.nearest(p.dense_points)
+        keep = t.truth.interior_mask(p.dense_points)
+        err = 100 * d[keep] / r[keep]
+        assert keep.sum() > 0.6 * len(keep)
+        assert err.max() <= min(1.5 * worst, 5.0), (p.ends, err.max())
+        assert err.mean() <= min(1.5 * mean, 1.0), (p.ends, err.mean())
 
 
 def test_junctions_are_where_the_true_centre_lines_meet(fitted):
