@@ -12,6 +12,7 @@ import os
 
 import numpy as np
 import pytest
+from distributed import WorkerPlugin
 
 import vesselgp as vg
 from vesselgp import batch
@@ -183,3 +184,42 @@ def test_local_cluster_workers_keep_the_allocator_defaults():
     big = str(vg.tolerances.BATCH_MALLOC_THRESHOLD)
     assert env == [{"MALLOC_TRIM_THRESHOLD_": big, "MALLOC_MMAP_THRESHOLD_": big, "OMP_NUM_THREADS": "1"}]
     assert {k: os.environ.get(k) for k in before} == before  # this process's environment is put back
+
+
+class _DieOn(WorkerPlugin):
+    """Worker plugin: the mesh job kills its worker process on one input (re-installed on every restart)."""
+
+    name = "vesselgp-test-die-on"
+
+    def __init__(self, suffix):
+        self.suffix = suffix
+
+    def setup(self, worker):
+        real = batch._JOBS["mesh"]
+
+        def job(path, *args):
+            if str(path).endswith(self.suffix):
+                os._exit(3)  # the process dies: no exception reaches Dask
+            return real(path, *args)
+
+        batch._JOBS["mesh"] = job
+
+
+def test_a_dead_worker_is_a_failed_row_and_the_batch_goes_on(cohort, tmp_path):
+    """A row whose worker process dies (a segfault in a library, the OOM killer) every time it runs."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    # one task per worker at a time, as the batch's own cluster runs them, so only the dying row is
+    # on the worker when it dies; Dask retries it on the restarted worker, then gives up (KilledWorker)
+    with dask.config.set({"distributed.scheduler.worker-saturation": 1.0,
+                          "distributed.scheduler.allowed-failures": 1}), \
+            LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
+            Client(cl) as c:
+        c.register_plugin(_DieOn("m3.ply"))
+        rep = batch.run(cohort / "meshes.csv", tmp_path / "out", client=c)
+    rows = {os.path.basename(r["inputs"].split(";")[0] if isinstance(r["inputs"], str) else r["inputs"][0]): r
+            for r in rep.rows}
+    assert rows["m3.ply"]["status"] == "error" and rows["m3.ply"]["error_type"] == "KilledWorker"
+    assert all(r["status"] == "ok" for k, r in rows.items() if k.startswith("m") and k != "m3.ply")
+    assert len(rep.rows) == 12 and rep.failed == 3  # the dead worker's row and the two corrupt files

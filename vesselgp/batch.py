@@ -334,8 +334,11 @@ def _cluster(workers):
     saved = {k: os.environ.get(k) for k in malloc}
     os.environ.update(malloc)
     try:
+        # one task on a worker at a time: a row that kills its worker process then takes no other
+        # row with it (Dask counts every task on a dead worker against its allowed failures)
         with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
-                              "distributed.worker.profile.enabled": False}):
+                              "distributed.worker.profile.enabled": False,
+                              "distributed.scheduler.worker-saturation": 1.0}):
             return _local_cluster(Client, LocalCluster, workers)
     finally:
         for k, v in saved.items():
