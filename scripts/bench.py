@@ -449,7 +449,7 @@ def main(argv=None):
     ap.add_argument("--join-vessels-sizes", default="10k",
                     help="join_vessels (two vessels by end index) synthetic sizes; the real pair is always added")
     ap.add_argument("--no-twist", action="store_true", help="skip the twist_between pairs")
-    ap.add_argument("--no-batch", action="store_true", help="skip the Dask batch (12 meshes of 60k, ~1.5 min)")
+    ap.add_argument("--no-batch", action="store_true", help="skip the Dask batch (16 meshes of 60k, ~4 min)")
     ap.add_argument("--quick", action="store_true", help="10k fit and join only (smoke test, a few seconds)")
     ap.add_argument("--repeat", type=int, default=3, help="timed repetitions below 300k vertices (median)")
     ap.add_argument("--format", default=".ply", choices=(".ply", ".stl", ".obj", ".off", ".vtp"),

@@ -1,7 +1,8 @@
 #!/usr/bin/env python
 """Vessel-tree benchmark (issue #13): fit_vessel_tree beside a libigl cotmatrix and VMTK on the same mesh.
 
-For each size, a synthetic 4-tip tree (``synthetic_tree(levels=2, target_vertices=n)``): the
+For each size, a synthetic 4-tip tree (``synthetic_tree(levels=2, target_vertices=n)``; the 2-tip
+``levels=1`` tree below 20k vertices, where a 4-tip tree's thinnest tube would be under 2.5 voxels): the
 median time of ``fit_vessel_tree`` (ends, branch decomposition, branch fits, paths, axis checks),
 of one ``igl.cotmatrix`` of the same mesh (the machine-independent yardstick), their ratio, and the
 path-axis error against the exact centre lines away from junctions (2 r) and tips (1.5 r).
@@ -76,7 +77,9 @@ def _tree_mesh(n_target, surface):
     from vesselgp.synthetic import synthetic_tree
 
     if surface == "exact":
-        t = synthetic_tree(levels=2, target_vertices=n_target)
+        # below ~20k vertices a 4-tip tree's thinnest tube would be under 2.5 voxels across:
+        # the small size is the 2-tip tree (levels=1)
+        t = synthetic_tree(levels=2 if n_target >= 20_000 else 1, target_vertices=n_target)
         return t, t.V, t.F
     voxel = 0.4 * np.sqrt(22_610 / n_target)  # 0.4 gives 22.6k vertices after cleaning
     t = synthetic_tree(levels=2, voxel=voxel, staircase=True)

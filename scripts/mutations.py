@@ -33,8 +33,8 @@ MUTATIONS = {
     ),
     "circle_fit_hat_weights_swapped": (
         "vesselgp/axis.py",
-        "G = np.concatenate([c * (1.0 - t)[:, None], c * t[:, None]], axis=1)",
-        "G = np.concatenate([c * t[:, None], c * (1.0 - t)[:, None]], axis=1)",
+        "G = [ck * u for ck in c] + [ck * t for ck in c]",
+        "G = [ck * t for ck in c] + [ck * u for ck in c]",
         ["tests/test_fit.py"],
     ),
     "eq7_sign": (

@@ -225,11 +225,13 @@ _PAIR_A, _PAIR_B = np.tril_indices(6)
 _PAIR_00, _PAIR_33 = 0, 9  # positions of the pairs (0, 0) and (3, 3) among them
 
 
-def _segment_sums(j, vals, K):
-    """Sum of the rows of ``vals`` (n, c) into the ``K - 1`` segments ``j``: (K - 1, c), one bincount."""
-    c = vals.shape[1]
-    idx = (j * c)[:, None] + np.arange(c)
-    return np.bincount(idx.ravel(), vals.ravel(), minlength=c * (K - 1)).reshape(K - 1, c)
+def _segment_sums(j, cols, K):
+    """Sums of each weight column into the ``K - 1`` segments ``j``: (K - 1, c).
+
+    One ``bincount`` per column: a single bincount over an (n, c) index table moves c times
+    more memory and is slower from about 5k vertices on.
+    """
+    return np.stack([np.bincount(j, c, minlength=K - 1) for c in cols], axis=1)
 
 
 def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_ends=True):
@@ -244,7 +246,8 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
     interleaved per node, bandwidth 7) and solved by banded Cholesky: O(n + K)
     with no sparse-matrix algebra. Each residual touches six unknowns (three at
     each node of its segment), so the data term is the 21 lower-triangle products
-    of six coefficients, summed per segment by one ``bincount``.
+    of six coefficients, each summed per segment by a ``bincount``; the regulariser
+    is one batched Gram product over the second differences.
 
     Returns the corrections as 3-D vectors, (K, 3).
     """
@@ -253,11 +256,12 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
     j, t = hat(s, K)
     x, y = local[:, 1], local[:, 2]
     sw = np.sqrt(w) / (2.0 * rscale)
-    c = np.stack([2 * x * sw, 2 * y * sw, sw], axis=1)  # coefficients of cx, cy, d in each residual
-    G = np.concatenate([c * (1.0 - t)[:, None], c * t[:, None]], axis=1)  # at nodes j and j + 1
+    c = (2 * x * sw, 2 * y * sw, sw)  # coefficients of cx, cy, d in each residual
+    u = 1.0 - t
+    G = [ck * u for ck in c] + [ck * t for ck in c]  # the six, at nodes j and j + 1 (contiguous columns)
     b = (x * x + y * y) * sw
-    S = _segment_sums(j, G[:, _PAIR_A] * G[:, _PAIR_B], K)
-    R = _segment_sums(j, G * b[:, None], K)
+    S = _segment_sums(j, (G[a] * G[c] for a, c in zip(_PAIR_A, _PAIR_B)), K)
+    R = _segment_sums(j, (g * b for g in G), K)
     rhs = np.zeros(n3)
     rhs[: 3 * (K - 1)] += R[:, :3].ravel()
     rhs[3:] += R[:, 3:].ravel()
