@@ -313,3 +313,22 @@ def test_torsion_along_a_tree_path_of_the_real_y():
     V2[on] = pts + d2
     prof = vesselgp.measure_torsion(V, V2, F, rest=p)
     assert abs(np.degrees(prof.total_twist) - 60.0) < 1.0  # measured 0.21 degrees off
+
+
+def test_a_shared_geodesic_solver_gives_the_same_fits_and_a_wrong_one_is_refused():
+    from vesselgp.fit import checked_mesh
+    from vesselgp.mesh.geodesic import GeodesicDistances
+
+    t = synthetic_tree(levels=1, voxel=0.6)
+    geo = GeodesicDistances(t.V, checked_mesh(t.V, t.F)[1])
+    a, b = fit_vessel_tree(t.V, t.F), fit_vessel_tree(t.V, t.F, geodesics=geo)
+    assert (a.vertex_branch == b.vertex_branch).all()
+    for pa, pb in zip(a.paths, b.paths):
+        assert np.array_equal(pa.centers, pb.centers) and np.array_equal(pa.radii, pb.radii)
+    # the single fit between two ends of the tree (its path mask) reuses it too
+    ga = vesselgp.fit_generalized_cylinder(t.V, t.F, ends=(0, 1))
+    gb = vesselgp.fit_generalized_cylinder(t.V, t.F, ends=(0, 1), geodesics=geo)
+    assert np.array_equal(ga.centers, gb.centers)
+    other = synthetic_tree(levels=1, voxel=0.7)
+    with pytest.raises(vesselgp.OptionError, match="precomputed for a mesh of"):
+        fit_vessel_tree(other.V, other.F, geodesics=geo)

@@ -110,7 +110,7 @@ def _agglomerate(tips, share):
     return nodes
 
 
-def branch_decomposition(V, F, ends, root=None):
+def branch_decomposition(V, F, ends, root=None, *, geodesics=None):
     """Topology of a vessel tree and the branch of each vertex (see the module notes).
 
     Parameters
@@ -121,6 +121,8 @@ def branch_decomposition(V, F, ends, root=None):
         Every end of the tree (:func:`vesselgp.vessel_ends`), at least three.
     root : int, optional
         The root end; default the widest.
+    geodesics : GeodesicDistances, optional
+        The heat-method solver of this ``V, F``, to reuse its factorisation; default built here.
 
     Returns
     -------
@@ -145,7 +147,7 @@ def branch_decomposition(V, F, ends, root=None):
         raise EndsError(f"a tree needs at least three ends, the mesh has {len(ends)}; "
                         "fit a single vessel with vesselgp.fit_generalized_cylinder")
     root = root_end(ends, root)
-    geo = GeodesicDistances(V, F)
+    geo = GeodesicDistances(V, F) if geodesics is None else geodesics.check(V, F)
     dist = [geo(e.vertices) for e in ends]
     tips = [j for j in range(len(ends)) if j != root]
     to_tip = {j: float(np.mean(dist[root][ends[j].vertices])) for j in tips}

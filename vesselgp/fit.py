@@ -204,13 +204,13 @@ def _resolve_ends(V, F, ends, topo, mesh_ends=None):
     return e0, e1, (i0, i1), len(all_ends)
 
 
-def _path_mask(V, F, e0, e1, rscale):
+def _path_mask(V, F, e0, e1, rscale, geodesics=None):
     """Vertices on the path between the two ends (excess geodesic length <= ``BRANCH_PATH_RADII`` radii).
 
     Used when the mesh has other ends (branches): vertices deeper than about a
     radius into a side branch have d0 + d1 well above the shortest d0 + d1.
     """
-    geo = GeodesicDistances(V, F)
+    geo = GeodesicDistances(V, F) if geodesics is None else geodesics.check(V, F)
     d0, d1 = geo(e0.vertices), geo(e1.vertices)
     ex = d0 + d1
     ex -= np.min(ex)
@@ -340,6 +340,7 @@ def fit_generalized_cylinder(
     max_iter=None,
     initial_normal=None,
     mesh_ends=None,
+    geodesics=None,
 ):
     """Fit a generalized cylinder (medial axis, radius, RMF) to a vessel mesh.
 
@@ -382,6 +383,11 @@ def fit_generalized_cylinder(
     mesh_ends : sequence of VesselEnd, optional
         Every end of the mesh, when already found (:func:`vesselgp.vessel_ends` of
         this mesh); ``ends`` indexes into them. Default: found here.
+    geodesics : GeodesicDistances, optional
+        On a mesh with more than two ends, the path between ``ends`` is found with
+        heat-method geodesics; this reuses a solver of ``V`` and the faces of ``F``
+        with an area (:class:`vesselgp.mesh.geodesic.GeodesicDistances`). Default:
+        built here when needed.
 
     Returns
     -------
@@ -423,7 +429,7 @@ def fit_generalized_cylinder(
     # (the initial axis of such a stub is not reliable).
     chord = float(np.linalg.norm(np.asarray(e1.center) - np.asarray(e0.center)))
     _check_aspect(chord, rscale)
-    wall_area, area, end_region = _data_weights(V, Fg, e0, e1, n_ends, rscale)
+    wall_area, area, end_region = _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics)
     nodes, s_prev, L0 = _initial_nodes(V, Fg, e0, e1, np.where(end_region, 0.0, area), chord, rscale, n_nodes)
     K = len(nodes)
     sub = thinned(len(V), tol.GC_MAX_FIT_VERTICES)
@@ -602,7 +608,7 @@ def _check_used(V, F):
         )
 
 
-def _data_weights(V, Fg, e0, e1, n_ends, rscale):
+def _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics=None):
     """Voronoi areas of the wall, Eq. 1's weights (zero off the path between the ends), the cap vertices.
 
     The areas use the faces with a well-defined area (zero-area faces have
@@ -615,7 +621,7 @@ def _data_weights(V, Fg, e0, e1, n_ends, rscale):
             end_region[np.asarray(e.vertices, np.int64)] = True
     area = wall_area
     if n_ends > 2:
-        area = np.where(_path_mask(V, Fg, e0, e1, rscale), wall_area, 0.0)
+        area = np.where(_path_mask(V, Fg, e0, e1, rscale, geodesics), wall_area, 0.0)
     return wall_area, area, end_region
 
 

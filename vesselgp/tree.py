@@ -319,7 +319,7 @@ def _tree_ends(V, F, topo, ends):
 # ----------------------------------------------------------------------------- public entry
 
 
-def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=None):
+def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=None, geodesics=None):
     """Fit a branching vessel mesh as a tree of generalized cylinders (see the module notes).
 
     Parameters
@@ -333,6 +333,10 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     lam, mu, max_iter : optional
         As for :func:`vesselgp.fit_generalized_cylinder` (Eq. 2 and Eq. 4 weights,
         iteration cap), per branch.
+    geodesics : GeodesicDistances, optional
+        The heat-method solver (:class:`vesselgp.mesh.geodesic.GeodesicDistances`) of ``V``
+        and the faces of ``F`` with an area, to reuse its factorisation (the largest single
+        cost of a tree fit) across fits of one mesh; default built here.
 
     Returns
     -------
@@ -369,11 +373,11 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     root = root_end(ends, root)
     if len(ends) == 2:
         gc = fit_generalized_cylinder(V, F, ends=(root, 1 - root), lam=lam, mu=mu, max_iter=max_iter,
-                                      mesh_ends=ends)
+                                      mesh_ends=ends, geodesics=geodesics)
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                           vertex_branch=np.zeros(len(V), np.int64))
-    br = branch_decomposition(V, Fg, ends, root)
+    br = branch_decomposition(V, Fg, ends, root, geodesics=geodesics)
     area = igl.massmatrix(V, Fg, igl.MASSMATRIX_TYPE_VORONOI).diagonal().copy()
     caps = np.zeros(len(V), bool)
     for e in ends:

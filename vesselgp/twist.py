@@ -49,7 +49,8 @@ from .errors import EndsError
 from .mesh import vessel_ends
 from .mesh._ends_format import end_listing
 from .rotations import wrap_angle
-from .fit import fit_generalized_cylinder
+from .fit import checked_mesh, fit_generalized_cylinder
+from .mesh.geodesic import GeodesicDistances
 from .tree import fit_vessel_tree
 
 log = logging.getLogger(__name__)
@@ -230,10 +231,12 @@ def scan_landmarks(V, F, ends=None):
     V, F = as_mesh(V, F)
     all_ends = vessel_ends(V, F)
     i, j = _main_ends(all_ends, ends, "ends")
-    tree = fit_vessel_tree(V, F, i, ends=all_ends)
+    # one heat-geodesic factorisation for the tree and the main fit's path between its ends
+    geo = GeodesicDistances(V, checked_mesh(V, F)[1]) if len(all_ends) > 2 else None
+    tree = fit_vessel_tree(V, F, i, ends=all_ends, geodesics=geo)
     k = next(q for q, p in enumerate(tree.paths) if p.ends[1] == j)
     on_main = set(tree.path_branches[k])
-    main = fit_generalized_cylinder(V, F, ends=(i, j), mesh_ends=all_ends)
+    main = fit_generalized_cylinder(V, F, ends=(i, j), mesh_ends=all_ends, geodesics=geo)
     rows = []
     for b in tree.path_branches[k][:-1]:
         J = tree.junctions[int(np.flatnonzero(tree.junction_branch == b)[0])]

@@ -14,6 +14,7 @@ import igl
 import numpy as np
 
 from .. import tolerances as tol
+from ..errors import OptionError
 from ._ends_format import bbox_diagonal
 
 __all__ = ["GeodesicDistances"]
@@ -40,10 +41,26 @@ class GeodesicDistances:
     """
 
     def __init__(self, V, F):
+        self.shape = (len(V), len(F))  # the mesh it was built for (see :meth:`check`)
         h = float(igl.avg_edge_length(V, F))
         self.t = max(h * h, bbox_diagonal(V) ** 2 / (4.0 * tol.GEODESIC_HEAT_DECAY))
         self._data = igl.HeatGeodesicsData()
         igl.heat_geodesics_precompute(V, F, self.t, self._data)
+
+    def check(self, V, F):
+        """``self`` when it was built for a mesh of ``len(V)`` vertices and ``len(F)`` faces.
+
+        Raises
+        ------
+        OptionError
+            It was built for another mesh.
+        """
+        if self.shape != (len(V), len(F)):
+            raise OptionError(
+                f"geodesics were precomputed for a mesh of {self.shape[0]} vertices and {self.shape[1]} faces, "
+                f"not this one ({len(V)}, {len(F)}); build GeodesicDistances(V, F) of this mesh (its faces with "
+                "an area, as vesselgp.fit.checked_mesh returns them) or pass none")
+        return self
 
     def __call__(self, sources):
         """Distance of every vertex from the nearest of ``sources`` (vertex ids), (n,) float64."""
