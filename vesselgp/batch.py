@@ -117,11 +117,8 @@ def read_manifest(path):
 
 
 def _file_hash(p):
-    h = hashlib.sha256()
     with open(p, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+        return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 def row_key(row):
@@ -235,8 +232,7 @@ def run_row(row):
     its type and one-line message.
     """
     t0 = time.perf_counter()
-    rec = {"row": row["row"], "kind": row["kind"], "inputs": row["inputs"], "key": row["key"],
-           "ends": row["ends"], "units": row["units"], "version": __version__}
+    rec = _record(row)
     try:
         if row["error"]:
             raise VesselError(row["error"])
@@ -249,10 +245,16 @@ def run_row(row):
     return to_json(rec)
 
 
+def _record(row):
+    """What every row's JSON starts with: the row and how it was computed."""
+    return {"row": row["row"], "kind": row["kind"], "inputs": row["inputs"], "key": row["key"],
+            "ends": row["ends"], "units": row["units"], "version": __version__}
+
+
 def _failure(row, exc_type, message):
-    return to_json({"row": row["row"], "kind": row["kind"], "inputs": row["inputs"], "key": row["key"],
-                    "ends": row["ends"], "units": row["units"], "version": __version__, "status": "error",
-                    "error_type": exc_type, "error": message, "metrics": {}, "detail": {}, "time_s": None})
+    """The record of a row that failed outside :func:`run_row` (a dead worker, a time-out)."""
+    return to_json({**_record(row), "status": "error", "error_type": exc_type, "error": message, "metrics": {},
+                    "detail": {}, "time_s": None})
 
 
 def _progress_bar(progress, total):
@@ -467,8 +469,6 @@ def run(manifest, out, client=None, *, workers=None, scheduler=None, timeout=Non
 
 
 def _cores():
-    import os
-
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
 
 

@@ -19,10 +19,10 @@ are read through :func:`read_mesh_in`, which converts them into millimetres
 from __future__ import annotations
 
 import contextlib
-import tempfile
 import logging
 import math
 import os
+import tempfile
 import time
 from dataclasses import asdict, replace
 from pathlib import Path
