@@ -118,9 +118,15 @@ MUTATIONS = {
     ),
     "geodesic_default_heat_time": (
         "vesselgp/mesh/geodesic.py",
-        "        self.t = max(h * h, bbox_diagonal(V) ** 2 / (4.0 * tol.GEODESIC_HEAT_DECAY))",
+        "        self.t = max(h * h, extent**2 / (4.0 * tol.GEODESIC_HEAT_DECAY))",
         "        self.t = h * h",
         ["tests/test_tree.py"],
+    ),
+    "geodesic_heat_time_of_the_bounding_box": (
+        "vesselgp/mesh/geodesic.py",
+        "        extent = 2.0 * float(np.sqrt(((V - V.mean(axis=0)) ** 2).sum(axis=1).max()))",
+        "        extent = float(np.linalg.norm(np.ptp(V, axis=0)))",
+        ["tests/test_geodesic.py", "tests/test_tree.py"],
     ),
     "join_anchor_sign": (
         "vesselgp/join.py",

@@ -414,7 +414,7 @@ ENDS_TIP_DOME_TO = 0.85
 ENDS_TIP_SEPARATION = 1.5
 
 # --- geodesic distances (vesselgp.mesh.geodesic) --------------------------------
-#: The heat time is at least diag^2 / (4 * this): across the whole mesh the heat kernel
+#: The heat time is at least extent^2 / (4 * this), extent = twice the largest distance from the centroid: across the whole mesh the heat kernel
 #: stays above exp(-this), far from underflow (libigl's default time underflows on fine meshes).
 GEODESIC_HEAT_DECAY = 300.0
 
