@@ -128,6 +128,12 @@ MUTATIONS = {
         "        extent = float(np.linalg.norm(np.ptp(V, axis=0)))",
         ["tests/test_geodesic.py", "tests/test_tree.py"],
     ),
+    "fixed_point_projection_not_refined": (
+        "vesselgp/tolerances.py",
+        "GC_NEWTON_STEPS_WARM = 1",
+        "GC_NEWTON_STEPS_WARM = 0",
+        ["tests/test_fit.py", "tests/test_truth.py"],
+    ),
     "join_anchor_sign": (
         "vesselgp/join.py",
         "rotate(target.normal, target.tangent, -self.anchor_offset)",

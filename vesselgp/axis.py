@@ -146,15 +146,15 @@ class Axis:
         # a window always holds the sample nearest s_prev: it is never empty
         return out
 
-    def project(self, P, s_prev, window=None):
+    def project(self, P, s_prev, window=None, newton_steps=None):
         """Closest-point parameter of each row of ``P`` near its previous parameter.
 
         With a ``window``, candidates are the dense samples nearest to each
         point (k-d tree); among those within ``window`` of ``s_prev`` the
         closest wins, which keeps a vertex on its own stretch of axis where the
         vessel comes close to itself. Without one, ``s_prev`` is trusted as the
-        start (the axis moved little since). Newton steps then refine ``s`` on
-        the interpolated axis.
+        start (the axis moved little since). Newton steps (``newton_steps``, default
+        ``tolerances.GC_NEWTON_STEPS``) then refine ``s`` on the interpolated axis.
 
         Returns ``s`` (unclipped, may leave [0, 1] beyond the ends).
         """
@@ -173,7 +173,7 @@ class Axis:
             none = np.flatnonzero(~np.isfinite(d[np.arange(len(P)), best]))
             if none.size:
                 s[none] = self._nearest_in_window(P[none], s_prev[none], window)
-        for _ in range(tol.GC_NEWTON_STEPS):
+        for _ in range(tol.GC_NEWTON_STEPS if newton_steps is None else newton_steps):
             s = np.clip(s, 0, 1)
             pts, T, k = interp_frames(self.s, self.points, self.frames, s, frames=False, table=self.table)
             d = P - pts

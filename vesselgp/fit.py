@@ -513,7 +513,7 @@ def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
     nodes = it.nodes
     K = len(nodes)
     axis = Axis(nodes, initial_normal)
-    s_raw = axis.project(Vs, it.s, window)
+    s_raw = axis.project(Vs, it.s, window, None if window is not None else tol.GC_NEWTON_STEPS_WARM)
     frozen = it.rejected is not None
     # once the outlier set is fixed, so is the set of vertices within the axis's range: a vertex
     # crossing an unpinned end would otherwise switch on and off and the fixed point cycle

@@ -88,6 +88,10 @@ GC_COARSE_CELL_RADII = 0.3
 GC_MAX_FIT_VERTICES = 60000
 #: Newton steps refining each vertex's closest-point parameter on the axis.
 GC_NEWTON_STEPS = 3
+#: ... and inside the fixed point after its first iteration: each vertex's parameter carries
+#: over from the last iteration, already within the axis's last move of its foot, so one step
+#: keeps it there (Newton converges quadratically); every final projection takes the full count.
+GC_NEWTON_STEPS_WARM = 1
 #: Dense samples of the axis per node spacing, used to project vertices onto the axis.
 GC_SAMPLES_PER_NODE = 8
 #: The axis spline's arc length is measured on this many chords per node spacing (relative
