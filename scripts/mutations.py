@@ -134,6 +134,12 @@ MUTATIONS = {
         "GC_NEWTON_STEPS_WARM = 0",
         ["tests/test_fit.py", "tests/test_truth.py"],
     ),
+    "fixed_point_stops_as_soon_as_frozen": (
+        "vesselgp/fit.py",
+        "    predicted = step * step / it.step if frozen and step < it.step else step",
+        "    predicted = 0.0 if frozen else step",
+        ["tests/test_fit.py", "tests/test_truth.py", "tests/test_tree.py"],
+    ),
     "join_anchor_sign": (
         "vesselgp/join.py",
         "rotate(target.normal, target.tangent, -self.anchor_offset)",

@@ -287,3 +287,24 @@ def test_real_bifurcation_needs_chosen_ends_and_follows_each_path():
         assert_axis_inside(V, F, gc)
         # the radius goes from the aorta's (7.7 mm) to the iliac's (4.4 mm)
         assert gc.radii[:3].mean() > 1.3 * gc.radii[-3:].mean()
+
+
+@pytest.mark.parametrize("case", ["arch", "coronary"])
+def test_a_converged_fit_is_at_its_fixed_point_within_the_tolerance(case, monkeypatch):
+    """``converged`` means the axis is within about the tolerance of the fixed point: iterated on
+    with a tolerance 10^4 times smaller, the axis moves by at most 2.5 GC_CONVERGENCE radii."""
+    from vesselgp import tolerances as tol
+
+    if case == "arch":
+        ves = synthetic_vessel("aortic_arch", radius=1.5, n_around=32, noise=0.02, seed=3)
+        V, F = ves.V, ves.F
+    else:
+        V, F = vesselgp.read_mesh(REAL / "xra_coronary_single_branch_open.stl")[:2]
+    a = fit_generalized_cylinder(V, F)
+    assert a.converged
+    bound = 2.5 * tol.GC_CONVERGENCE * a.mean_radius
+    monkeypatch.setattr(tol, "GC_CONVERGENCE", 1e-4 * tol.GC_CONVERGENCE)
+    b = fit_generalized_cylinder(V, F, max_iter=80)
+    assert b.converged and b.iterations > a.iterations
+    assert np.abs(a.centers - b.centers).max() < bound
+    assert np.abs(a.radii - b.radii).max() < bound

@@ -93,8 +93,8 @@ class GeneralizedCylinder:
     iterations : int
         Outer iterations the fit used.
     converged : bool
-        Whether the axis step fell below ``tolerances.GC_CONVERGENCE`` radii
-        before ``max_iter`` iterations.
+        Whether the axis step (or the next one predicted, see :func:`fixed_point`) fell below
+        ``tolerances.GC_CONVERGENCE`` radii before ``max_iter`` iterations.
     lam, mu : float
         The regularisation weights of Eq. 2 and Eq. 4 the fit used.
     """
@@ -479,8 +479,10 @@ def fixed_point(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_i
     Returns
     -------
     _Iteration
-        The last state; ``converged`` says whether the axis step fell below
-        ``tolerances.GC_CONVERGENCE`` radii (a warning is logged otherwise).
+        The last state; ``converged`` says whether the axis step, or once the outlier set is
+        fixed the next step predicted from the last two (``step^2 / previous``, the iteration
+        then contracting geometrically), fell below ``tolerances.GC_CONVERGENCE`` radii (a
+        warning is logged otherwise).
     """
     K = len(nodes)
     it = _Iteration(nodes, s0, None, 0, False)
@@ -506,6 +508,7 @@ class _Iteration:
     converged: bool
     rejected: np.ndarray | None = None
     inside: np.ndarray | None = None
+    step: float = float("inf")
 
 
 def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
@@ -535,8 +538,11 @@ def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
     rejected, kept = it.rejected, it.inside
     if not frozen and it.radii is not None and step < tol.GC_REWEIGHT_UNTIL * rscale:
         rejected, kept = (w == 0) & inside & (jac > tol.GC_MIN_STRETCH), inside
+    # converged: the axis moved less than the tolerance, or (outlier set fixed, the step shrinking
+    # geometrically) the next move, predicted as step^2 / previous step, would
+    predicted = step * step / it.step if frozen and step < it.step else step
     return _Iteration(resample_arclength(nodes, K), s_next, radii, it.count + 1,
-                      step < tol.GC_CONVERGENCE * rscale, rejected, kept)
+                      min(step, predicted) < tol.GC_CONVERGENCE * rscale, rejected, kept, step)
 
 
 def cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids):

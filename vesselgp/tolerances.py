@@ -54,7 +54,9 @@ GC_NODE_SPACING = 0.5
 #: Generalized-cylinder fit: bounds on the number of axis nodes.
 GC_MIN_NODES = 12
 GC_MAX_NODES = 600
-#: Generalized-cylinder fit: stop when the axis moves less than this times the mean radius.
+#: Generalized-cylinder fit: stop when the axis moves less than this times the mean radius,
+#: or (outlier set fixed, steps shrinking) when the next move predicted from the last two
+#: (step^2 / previous step) would.
 GC_CONVERGENCE = 1e-4
 #: Generalized-cylinder fit: maximum number of outer iterations.
 GC_MAX_ITER = 30
