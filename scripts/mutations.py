@@ -172,7 +172,7 @@ MUTATIONS = {
     ),
     "twist_main_axis_from_tree_path": (
         "vesselgp/twist.py",
-        "    main = fit_generalized_cylinder(V, F, ends=(i, j), mesh_ends=all_ends)",
+        "    main = fit_generalized_cylinder(V, F, ends=(i, j), mesh_ends=all_ends, geodesics=geo)",
         "    main = tree.paths[k]",
         ["tests/test_twist.py"],
     ),
