@@ -420,8 +420,10 @@ ENDS_TIP_DOME_TO = 0.85
 ENDS_TIP_SEPARATION = 1.5
 
 # --- geodesic distances (vesselgp.mesh.geodesic) --------------------------------
-#: The heat time is at least extent^2 / (4 * this), extent = twice the largest distance from the centroid: across the whole mesh the heat kernel
-#: stays above exp(-this), far from underflow (libigl's default time underflows on fine meshes).
+#: The heat time is at least extent^2 / (4 * this), the extent being twice the largest distance
+#: of a vertex from the centroid (rigid-invariant, at least the diameter): across the whole mesh
+#: the heat kernel stays above exp(-this), far from underflow (libigl's default time underflows
+#: on fine meshes).
 GEODESIC_HEAT_DECAY = 300.0
 
 # --- branch decomposition of trees (vesselgp.branches) -----------------------
