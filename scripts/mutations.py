@@ -140,6 +140,18 @@ MUTATIONS = {
         "    predicted = 0.0 if frozen else step",
         ["tests/test_fit.py", "tests/test_truth.py", "tests/test_tree.py"],
     ),
+    "voronoi_areas_chunks_overwrite": (
+        "vesselgp/mesh/_geometry.py",
+        "        out[:len(d)] += d",
+        "        out[:len(d)] = d",
+        ["tests/test_mesh.py"],
+    ),
+    "projection_chunks_share_the_first_start": (
+        "vesselgp/axis.py",
+        "            out[rows] = self._project_rows(P[rows], s_prev[rows], window, steps)",
+        "            out[rows] = self._project_rows(P[rows], s_prev[:len(P[rows])], window, steps)",
+        ["tests/test_records.py"],
+    ),
     "join_anchor_sign": (
         "vesselgp/join.py",
         "rotate(target.normal, target.tangent, -self.anchor_offset)",

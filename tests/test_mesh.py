@@ -381,3 +381,22 @@ def test_select_ends_two_and_one():
 
 def test_cap_tolerances_are_used():
     assert 0 < tol.CAP_FLATNESS < tol.SHARP_EDGE_ANGLE
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 10**9])
+def test_voronoi_areas_are_libigls_mass_matrix_in_any_chunks(monkeypatch, chunk):
+    """Summing libigl's Voronoi mass matrix over face chunks gives its diagonal for the whole mesh
+    (obtuse faces of a jittered real mesh included, and a last vertex no face uses)."""
+    import igl
+
+    from vesselgp.mesh._geometry import voronoi_areas
+
+    V, F = read_mesh(REAL / "xra_coronary_single_branch_open.stl")
+    V = V + np.random.default_rng(3).normal(scale=0.3 * float(np.median(igl.edge_lengths(V, F))), size=V.shape)
+    V = np.vstack([V, V[:1] + 1.0])
+    truth = np.zeros(len(V))
+    d = igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
+    truth[:len(d)] = d
+    monkeypatch.setattr(tol, "AREA_FACE_CHUNK", chunk)
+    np.testing.assert_allclose(voronoi_areas(V, F), truth, rtol=1e-12, atol=1e-15 * truth.max())
+    assert voronoi_areas(V, F)[-1] == 0.0

@@ -155,3 +155,28 @@ def test_real_fits_converge_before_the_cap(mesh, ends):
     V, F = vesselgp.read_mesh(REAL / mesh)[:2]
     gc = vesselgp.fit_generalized_cylinder(V, F, ends=ends)
     assert gc.converged and gc.iterations <= 20 < tol.GC_MAX_ITER
+
+
+def test_projection_and_frames_do_not_depend_on_the_row_chunks(monkeypatch):
+    """Rows are projected and put in their frames a chunk at a time (bounded memory): chunks of 7
+    rows give exactly what one chunk does, and the feet are the closest points of the hairpin."""
+    from vesselgp import tolerances as tol
+    from vesselgp.axis import local_coords
+
+    ax = Axis(_hairpin())
+    rng = np.random.default_rng(5)
+    s_true = rng.uniform(0.02, 0.98, 200)
+    pts, fr = ax.at(s_true)
+    P = pts + 0.15 * (fr[:, 1] * rng.normal(size=(200, 1)) + fr[:, 2] * rng.normal(size=(200, 1)))
+    start = np.clip(s_true + rng.normal(scale=0.01, size=200), 0, 1)
+    out = {}
+    for chunk in (10**6, 7):
+        monkeypatch.setattr(tol, "AXIS_ROW_CHUNK", chunk)
+        s_win = ax.project(P, start, window=0.05)
+        s_warm = ax.project(P, start, None)
+        out[chunk] = (s_win, s_warm) + local_coords(ax, P, np.clip(s_win, 0, 1))
+    for a, b in zip(out[10**6], out[7]):
+        np.testing.assert_array_equal(a, b)
+    # the foot of each point is where its offset is normal to the axis (local T coordinate 0)
+    assert np.abs(out[7][2][:, 0]).max() < 1e-6
+    np.testing.assert_allclose(out[7][0], s_true, atol=2e-3)

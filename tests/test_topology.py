@@ -211,3 +211,31 @@ def test_stitch_joins_two_tubes_into_one_coherent_mesh():
     flat[:12, 1] = 0.0  # the other ring collapsed onto a line
     with pytest.raises(EndsError, match="other_loop_ids ring encloses no area"):
         stitch(a.V, a.F, ring_a, flat, b.F, np.arange(12))
+
+
+# --------------------------------------------------------------------------- #
+# compact index tables (peak memory, issue #16)
+# --------------------------------------------------------------------------- #
+def test_int32_tables_are_the_int64_tables(monkeypatch):
+    """The int32 tables of an ordinary mesh hold exactly what int64 ones would."""
+    import vesselgp.mesh.topology as topology
+
+    V, F = read_mesh(REAL / "xra_coronary_single_branch_open.stl")
+    small = mesh_topology(F, len(V))
+    assert small.index_dtype == np.int32 and small.edges.dtype == np.int32
+    monkeypatch.setattr(topology, "_index_dtype", lambda *_: np.dtype(np.int64))
+    wide = mesh_topology(F, len(V))
+    assert wide.edges.dtype == np.int64
+    for name in ("edges", "face_edges", "edge_face_count", "edge_up_count", "edge_halfedges", "edge_faces",
+                 "twin", "boundary_halfedges"):
+        np.testing.assert_array_equal(getattr(small, name), getattr(wide, name), err_msg=name)
+    assert [lp.tolist() for lp in small.boundary_loops] == [lp.tolist() for lp in wide.boundary_loops]
+    assert all(lp.dtype == np.int64 for lp in small.boundary_loops)
+    assert small.face_components[0] == wide.face_components[0] == 1
+
+
+def test_index_dtype_widens_past_int32():
+    from vesselgp.mesh.topology import _index_dtype
+
+    assert _index_dtype(3 * 1000, 500) == np.int32
+    assert _index_dtype(2**31, 10) == np.int64 and _index_dtype(30, 2**31) == np.int64

@@ -155,25 +155,34 @@ class Axis:
         vessel comes close to itself. Without one, ``s_prev`` is trusted as the
         start (the axis moved little since). Newton steps (``newton_steps``, default
         ``tolerances.GC_NEWTON_STEPS``) then refine ``s`` on the interpolated axis.
+        Rows are handled ``tolerances.AXIS_ROW_CHUNK`` at a time (bounded temporaries).
 
         Returns ``s`` (unclipped, may leave [0, 1] beyond the ends).
         """
+        steps = tol.GC_NEWTON_STEPS if newton_steps is None else newton_steps
+        s_prev = np.asarray(s_prev, float)
+        if window is not None and self._tree is None:
+            self._tree = cKDTree(self.points)
+        out = np.empty(len(P))
+        for rows in _row_chunks(len(P)):
+            out[rows] = self._project_rows(P[rows], s_prev[rows], window, steps)
+        return out
+
+    def _project_rows(self, P, s_prev, window, steps):
+        """:meth:`project` of one chunk of rows."""
         if window is None:
-            s = np.asarray(s_prev, float).copy()
+            s = s_prev.copy()
         else:
-            if self._tree is None:
-                self._tree = cKDTree(self.points)
             kq = min(8, len(self.s))
             dist, idx = self._tree.query(P, k=kq)
             sc = self.s[idx]
-            far = np.abs(sc - s_prev[:, None]) > window
-            d = np.where(far, np.inf, dist)
+            d = np.where(np.abs(sc - s_prev[:, None]) > window, np.inf, dist)
             best = np.argmin(d, axis=1)
             s = sc[np.arange(len(P)), best]
             none = np.flatnonzero(~np.isfinite(d[np.arange(len(P)), best]))
             if none.size:
                 s[none] = self._nearest_in_window(P[none], s_prev[none], window)
-        for _ in range(tol.GC_NEWTON_STEPS if newton_steps is None else newton_steps):
+        for _ in range(steps):
             s = np.clip(s, 0, 1)
             pts, T, k = interp_frames(self.s, self.points, self.frames, s, frames=False, table=self.table)
             d = P - pts
@@ -181,6 +190,12 @@ class Axis:
             jac = np.maximum(1.0 - np.einsum("ij,ij->i", k, d), tol.GC_MIN_STRETCH)
             s = s + np.einsum("ij,ij->i", d, T) / (self.length * jac)
         return s
+
+
+def _row_chunks(n):
+    """Slices of at most ``tolerances.AXIS_ROW_CHUNK`` consecutive rows covering ``range(n)``."""
+    step = tol.AXIS_ROW_CHUNK
+    return [slice(a, min(a + step, n)) for a in range(0, n, step)] or [slice(0, 0)]
 
 
 def _default_normal(points, t0):
@@ -319,6 +334,15 @@ def solve_banded_spd(ab, rhs):
 
 
 def local_coords(axis, P, s):
-    pts, fr = axis.at(s)
-    d = P - pts
-    return np.einsum("nij,nj->ni", fr, d), axis.stretch(s, d)
+    """Coordinates (n, 3) of ``P`` in the frame at its ``s`` (along T, U, V), and the stretch (n,).
+
+    The stretch is :meth:`Axis.stretch` of the offset. Rows are handled
+    ``tolerances.AXIS_ROW_CHUNK`` at a time (bounded temporaries).
+    """
+    local, jac = np.empty((len(P), 3)), np.empty(len(P))
+    for rows in _row_chunks(len(P)):
+        pts, fr = axis.at(s[rows])
+        d = P[rows] - pts
+        local[rows] = np.einsum("nij,nj->ni", fr, d)
+        jac[rows] = axis.stretch(s[rows], d)
+    return local, jac

@@ -48,6 +48,7 @@ from .errors import InvalidMeshError, NotTubularError, OptionError
 from .inside import check_axis_inside
 from .mesh import mesh_scale, mesh_topology, select_ends, vessel_ends
 from .mesh.geodesic import GeodesicDistances
+from .mesh._geometry import voronoi_areas
 
 log = logging.getLogger(__name__)
 
@@ -231,10 +232,13 @@ def _harmonic_between(V, F, b, bc, rscale):
     h = min(np.sqrt(area / tol.GC_COARSE_INIT_VERTICES), tol.GC_COARSE_CELL_RADII * rscale)
     key = np.floor((V - V.min(axis=0)) / h).astype(np.int64)
     _, cell = unique_rows(key, return_inverse=True)
+    del key
     nc = int(cell.max()) + 1
-    E = igl.edges(F)
-    ce = cell[E]
-    ce = ce[ce[:, 0] != ce[:, 1]]
+    cell = cell.astype(np.int32 if nc < np.iinfo(np.int32).max else np.int64)
+    # the cells' graph: every face's corner edges (each interior edge twice; symmetrised below)
+    cf = cell[F]
+    ce = np.concatenate([cf[:, [i, (i + 1) % 3]][cf[:, i] != cf[:, (i + 1) % 3]] for i in range(3)])
+    del cf
     A = sp.coo_matrix((np.ones(len(ce)), (ce[:, 0], ce[:, 1])), shape=(nc, nc)).tocsr()
     A = ((A + A.T) > 0).astype(float)
     L = (sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A).tocsr()
@@ -620,7 +624,7 @@ def _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics=None):
     The areas use the faces with a well-defined area (zero-area faces have
     infinite cotangent weights).
     """
-    wall_area = igl.massmatrix(V, Fg, igl.MASSMATRIX_TYPE_VORONOI).diagonal().copy()
+    wall_area = voronoi_areas(V, Fg)
     end_region = np.zeros(len(V), bool)
     for e in (e0, e1):
         if getattr(e, "kind", "open") != "open":

@@ -26,6 +26,7 @@ from . import tolerances as tol
 from ._arrays import thinned
 from .errors import NotTubularError
 from .mesh import bbox_diagonal, format_point, mesh_topology
+from .mesh._geometry import voronoi_areas
 
 __all__ = ["axis_winding", "check_axis_inside"]
 
@@ -101,7 +102,7 @@ def axis_winding(V, F, Q, area=None, loops=None):
         Distance to the nearest surface sample (a vertex of the thinned subset).
     """
     if area is None:
-        area = igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
+        area = voronoi_areas(V, F)
     if loops is None:
         loops = mesh_topology(F, len(V)).boundary_loops
     P, N, A = _closed_samples(V, F, area, loops)

@@ -81,6 +81,13 @@ GC_RADIUS_RIDGE = 1e-9
 #: Entries of the distance block formed at a time when projecting points that have
 #: no candidate axis sample among their nearest ones (memory bound).
 PROJECTION_CHUNK = 4_000_000
+#: Rows (vertices) projected onto an axis, or put in its frames, at a time: the gathers and
+#: k-d tree candidates cost about 0.6 KB a row, so this bounds them to about 20 MB whatever
+#: the mesh size (peak memory, issue #16).
+AXIS_ROW_CHUNK = 32768
+#: Faces whose Voronoi areas libigl computes at a time (its mass-matrix triplets and copies
+#: cost about 0.4 KB a vertex when built for the whole mesh at once).
+AREA_FACE_CHUNK = 65536
 #: Above this many vertices the harmonic initialisation runs on a vertex-clustered copy.
 GC_COARSE_INIT_VERTICES = 15000
 #: Cells of that copy are at most this many (end) radii wide, so they never bridge the lumen.

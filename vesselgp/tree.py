@@ -33,7 +33,6 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, replace
 
-import igl
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -46,6 +45,7 @@ from .errors import EndsError, NotTubularError
 from .fit import GeneralizedCylinder, checked_mesh, cylinder_from_axis, fit_generalized_cylinder, fixed_point
 from .inside import check_axis_inside
 from .mesh import vessel_ends
+from .mesh._geometry import voronoi_areas
 from .rotations import minimal_rotation
 
 log = logging.getLogger(__name__)
@@ -378,7 +378,7 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                           vertex_branch=np.zeros(len(V), np.int64))
     br = branch_decomposition(V, Fg, ends, root, geodesics=geodesics)
-    area = igl.massmatrix(V, Fg, igl.MASSMATRIX_TYPE_VORONOI).diagonal().copy()
+    area = voronoi_areas(V, Fg)
     caps = np.zeros(len(V), bool)
     for e in ends:
         if e.kind != "open":

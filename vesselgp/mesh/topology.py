@@ -50,7 +50,10 @@ class MeshTopology:
     take ``V``). The edge table is computed on construction from one stable
     sort of the corner edges' int64 keys ``min * n + max``; everything else is
     computed on first use and cached. The object describes ``F`` as it was
-    when built: do not modify ``F`` afterwards.
+    when built: do not modify ``F`` afterwards. Its index tables are
+    :attr:`index_dtype` (int32 whenever every half-edge and vertex index fits,
+    which halves their memory; int64 beyond), written ``int`` below; the
+    vertex and face ids it returns (loops, components, edge lookups) are int64.
 
     Parameters
     ----------
@@ -66,16 +69,18 @@ class MeshTopology:
         The faces.
     n_vertices : int
         Number of vertices, including unreferenced ones.
-    edges : (e, 2) int64
+    index_dtype : numpy.dtype
+        int32, or int64 for a mesh with 2**31 half-edges or vertices or more.
+    edges : (e, 2) int
         Unique undirected edges, ``edges[:, 0] <= edges[:, 1]``, rows in
         lexicographic order. A face with a repeated vertex gives a self-loop
         edge ``(a, a)``.
-    face_edges : (m, 3) int64
+    face_edges : (m, 3) int
         Edge id of each corner edge: ``face_edges[f, i]`` is the edge from
         ``F[f, i]`` to ``F[f, (i + 1) % 3]``.
-    edge_face_count : (e,) int64
+    edge_face_count : (e,) int
         Faces using each edge (1 boundary, 2 interior, > 2 non-manifold).
-    edge_up_count : (e,) int64
+    edge_up_count : (e,) int
         Faces traversing each edge from its smaller to its larger vertex.
 
     Examples
@@ -91,28 +96,33 @@ class MeshTopology:
         self.F = F.view()  # read-only view: the caller's array keeps its flags
         self.n_vertices = int(n_vertices)
         base = max(self.n_vertices, 1)
+        self.index_dtype = _index_dtype(3 * len(F), self.n_vertices)
         a = F.reshape(-1)
         b = F[:, [1, 2, 0]].reshape(-1)
         up = a < b
         key = np.minimum(a, b) * base + np.maximum(a, b)
+        del a, b
         # stable: faces of an edge stay in face order (deterministic first/second face),
         # and timsort is fast on the partly ordered corner keys of real meshes
         order = np.argsort(key, kind="stable")
         ks = key[order]
+        del key
         new = np.ones(len(ks), dtype=bool)
         np.not_equal(ks[1:], ks[:-1], out=new[1:])
-        starts = np.flatnonzero(new)
-        inv = np.empty(len(key), dtype=np.int64)
-        inv[order] = np.cumsum(new) - 1
-        self._order = order
+        starts = np.flatnonzero(new).astype(self.index_dtype)
+        inv = np.empty(len(ks), dtype=self.index_dtype)
+        inv[order] = np.cumsum(new, dtype=self.index_dtype) - 1
+        self._order = order.astype(self.index_dtype)
+        del order
         self._starts = starts
         self._same = ~new  # sorted position i repeats the edge of position i - 1
         self._keys = ks[starts]
+        del ks
         self._base = base
-        self.edges = np.stack([self._keys // base, self._keys % base], axis=1)
+        self.edges = np.stack([self._keys // base, self._keys % base], axis=1).astype(self.index_dtype)
         self.face_edges = inv.reshape(-1, 3)
-        self.edge_face_count = np.diff(np.append(starts, len(ks)))
-        self.edge_up_count = np.bincount(inv, weights=up, minlength=len(starts)).astype(np.int64)
+        self.edge_face_count = np.diff(np.append(starts, len(inv))).astype(self.index_dtype)
+        self.edge_up_count = np.bincount(inv, weights=up, minlength=len(starts)).astype(self.index_dtype)
         for arr in (self.F, self.edges, self.face_edges, self.edge_face_count, self.edge_up_count):
             arr.flags.writeable = False
 
@@ -170,30 +180,30 @@ class MeshTopology:
     # ------------------------------------------------------------------ edges and faces
     @cached_property
     def edge_halfedges(self):
-        """(e, 2) int64: the first two half-edges of each edge in face order; -1 if it has one face."""
-        second = np.full(self.n_edges, -1, dtype=np.int64)
+        """(e, 2) int: the first two half-edges of each edge in face order; -1 if it has one face."""
+        second = np.full(self.n_edges, -1, dtype=self.index_dtype)
         two = self.edge_face_count >= 2
         second[two] = self._order[self._starts[two] + 1]
         return np.stack([self._order[self._starts], second], axis=1)
 
     @cached_property
     def edge_faces(self):
-        """(e, 2) int64: the faces of each edge, lower face first; -1 for a boundary edge's missing face.
+        """(e, 2) int: the faces of each edge, lower face first; -1 for a boundary edge's missing face.
 
         A non-manifold edge lists only its first two faces; see :meth:`faces_of_edge`.
         """
         H = self.edge_halfedges
-        return np.where(H >= 0, H // 3, -1)
+        return np.where(H >= 0, H // 3, -1).astype(self.index_dtype)
 
     def faces_of_edge(self, e):
         """All faces using edge ``e`` ((k,) int64, ascending), also for non-manifold edges."""
         s = self._starts[e]
-        return self._order[s:s + self.edge_face_count[e]] // 3
+        return (self._order[s:s + self.edge_face_count[e]] // 3).astype(np.int64)
 
     @cached_property
     def twin(self):
-        """(3 m,) int64: the other half-edge of a two-face edge; -1 on boundary, non-manifold edges."""
-        tw = np.full(3 * self.n_faces, -1, dtype=np.int64)
+        """(3 m,) int: the other half-edge of a two-face edge; -1 on boundary, non-manifold edges."""
+        tw = np.full(3 * self.n_faces, -1, dtype=self.index_dtype)
         H = self.edge_halfedges[self.edge_face_count == 2]
         tw[H[:, 0]] = H[:, 1]
         tw[H[:, 1]] = H[:, 0]
@@ -273,7 +283,7 @@ class MeshTopology:
     @cached_property
     def boundary_halfedges(self):
         """(b,) int64: the half-edge of each boundary edge (same order as :attr:`boundary_edges`)."""
-        return self._order[self._starts[self.boundary_edges]]
+        return self._order[self._starts[self.boundary_edges]].astype(np.int64)
 
     @cached_property
     def boundary_faces(self):
@@ -377,6 +387,11 @@ class MeshTopology:
         G = sp.coo_array((np.ones(len(pos), dtype=np.int8), (f, g)), shape=(m, m)).tocsr()
         k, lab = connected_components(G, directed=False)
         return int(k), lab
+
+
+def _index_dtype(n_halfedges, n_vertices):
+    """int32 when every half-edge and vertex index fits in it, else int64."""
+    return np.dtype(np.int32 if max(n_halfedges, n_vertices) < np.iinfo(np.int32).max else np.int64)
 
 
 def _cycles(nxt, src):
