@@ -152,6 +152,12 @@ MUTATIONS = {
         "            out[rows] = self._project_rows(P[rows], s_prev[:len(P[rows])], window, steps)",
         ["tests/test_records.py"],
     ),
+    "thinned_fit_seeds_not_spread": (
+        "vesselgp/fit.py",
+        "        s[new] = total[new] / count[new]",
+        "        s[new] = 0.5",
+        ["tests/test_fit.py"],
+    ),
     "join_anchor_sign": (
         "vesselgp/join.py",
         "rotate(target.normal, target.tangent, -self.anchor_offset)",

@@ -308,3 +308,31 @@ def test_a_converged_fit_is_at_its_fixed_point_within_the_tolerance(case, monkey
     assert b.converged and b.iterations > a.iterations
     assert np.abs(a.centers - b.centers).max() < bound
     assert np.abs(a.radii - b.radii).max() < bound
+
+
+@pytest.mark.parametrize("case, axis_pct", [("helix", 0.015), ("arch", 1.1)])
+def test_a_thinned_fit_matches_the_truth_and_puts_every_vertex_at_its_foot(case, axis_pct, monkeypatch):
+    """Large meshes iterate on an evenly thinned quarter of their vertices, from the coarse (vertex-
+    clustered) harmonic initialisation; every vertex then starts from its mesh neighbours' converged
+    parameters. Forced here on 10k-vertex tubes: the axis against the true centre line (measured 0.009 %
+    of the radius on the circular helix, 0.71 % on the elliptical structured arch, as without thinning),
+    and every wall vertex in its section plane (|x_T| measured 4e-10 L) at its true section's s."""
+    from vesselgp import tolerances as tol
+
+    if case == "helix":
+        ves = synthetic_vessel("helix", radius=lambda s: R0 * (1 + 0.2 * np.sin(2 * np.pi * s)), n_around=32, seed=3)
+    else:
+        ves = synthetic_vessel(arch_curve(), radius=lambda s: R0 * (1 + 0.2 * np.sin(2 * np.pi * s)),
+                               ellipticity=0.8, n_around=48, remesh=False, seed=3)
+    monkeypatch.setattr(tol, "GC_MAX_FIT_VERTICES", len(ves.V) // 4)
+    monkeypatch.setattr(tol, "GC_COARSE_INIT_VERTICES", 2000)
+    gc = fit_generalized_cylinder(ves.V, ves.F)
+    inner = (gc.dense_s > 0.05) & (gc.dense_s < 0.95)
+    d = polyline_distance(gc.dense_points[inner], ves.truth.centers)
+    assert d.max() <= axis_pct / 100 * R0, f"axis off by {d.max() / R0:.3%} of the radius"
+    w = gc.vertex_weight > 0
+    assert np.abs(gc.vertex_local[w, 0]).max() < 1e-6 * gc.length
+    s_true = _orient(gc, ves.truth)[0] != 0
+    s = 1 - gc.vertex_s if s_true else gc.vertex_s
+    inn = (ves.truth.vertex_s > 0.05) & (ves.truth.vertex_s < 0.95)
+    assert np.abs(s - ves.truth.vertex_s)[inn].max() * gc.length < 0.05 * R0

@@ -229,7 +229,7 @@ def _harmonic_between(V, F, b, bc, rscale):
     if len(V) <= tol.GC_COARSE_INIT_VERTICES:
         return igl.harmonic(V, F, b, np.ascontiguousarray(bc[:, None]), 1).ravel()
     area = float(igl.doublearea(V, F).sum()) / 2
-    h = min(np.sqrt(area / tol.GC_COARSE_INIT_VERTICES), tol.GC_COARSE_CELL_RADII * rscale)
+    h = min(np.sqrt(area / tol.GC_COARSE_INIT_CELLS), tol.GC_COARSE_CELL_RADII * rscale)
     key = np.floor((V - V.min(axis=0)) / h).astype(np.int64)
     _, cell = unique_rows(key, return_inverse=True)
     del key
@@ -435,19 +435,38 @@ def fit_generalized_cylinder(
     _check_aspect(chord, rscale)
     wall_area, area, end_region = _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics)
     nodes, s_prev, L0 = _initial_nodes(V, Fg, e0, e1, np.where(end_region, 0.0, area), chord, rscale, n_nodes)
-    K = len(nodes)
     sub = thinned(len(V), tol.GC_MAX_FIT_VERTICES)
     it = fixed_point(nodes, s_prev[sub], V[sub], area[sub], end_region[sub], rscale, L0,
                      lam=lam, mu=mu, max_iter=max_iter, initial_normal=initial_normal)
-    # final parameterisation on the converged axis, all vertices
+    # final parameterisation on the converged axis, all vertices, each starting from the
+    # converged parameter of its own or a nearby vertex of the thinned subset
     axis = Axis(it.nodes, initial_normal)
-    if sub.step == 1:
-        s_raw = axis.project(V, it.s, None)
-    else:
-        s_raw = axis.project(V, s_prev, 3.0 / (K - 1) + 2.0 * rscale / L0)
+    s_raw = axis.project(V, it.s if sub.step == 1 else _spread_to_neighbours(topo.adjacency, sub, it.s), None)
     gc = cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids)
     check_axis_inside(V, F, gc.s, gc.centers, gc.radii, area=wall_area, loops=topo.boundary_loops)
     return gc
+
+
+def _spread_to_neighbours(adjacency, sub, s_sub):
+    """Parameters of every vertex from those of the subset ``sub``: the mean over a vertex's
+    mesh neighbours that have one, ring by ring outwards from the subset, (n,) float64.
+
+    A start for the Newton projection within about an edge of each vertex's foot, on its own
+    stretch of axis (a mesh neighbour lies on the same stretch even where the vessel folds
+    close to itself), without a k-d tree query of every vertex.
+    """
+    n = adjacency.shape[0]
+    s = np.zeros(n)
+    known = np.zeros(n, bool)
+    s[sub], known[sub] = s_sub, True
+    while not known.all():
+        total, count = adjacency @ s, adjacency @ known.astype(np.float64)
+        new = ~known & (count > 0)
+        if not new.any():  # unreachable: the mesh is one connected component (checked_mesh)
+            raise InvalidMeshError("mesh has vertices unconnected to the rest; run vesselgp.clean_mesh first")
+        s[new] = total[new] / count[new]
+        known |= new
+    return s
 
 
 def fixed_point(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_iter, initial_normal=None,

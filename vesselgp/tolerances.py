@@ -90,6 +90,9 @@ AXIS_ROW_CHUNK = 32768
 AREA_FACE_CHUNK = 65536
 #: Above this many vertices the harmonic initialisation runs on a vertex-clustered copy.
 GC_COARSE_INIT_VERTICES = 15000
+#: About this many cells in that copy (it seeds the fit only: 5000 instead of 15000 cells moves
+#: the harmonic field by 2.5 % of its range and saves 0.17 s of 0.27 at 200k vertices).
+GC_COARSE_INIT_CELLS = 5000
 #: Cells of that copy are at most this many (end) radii wide, so they never bridge the lumen.
 GC_COARSE_CELL_RADII = 0.3
 #: The fit iterates on at most about this many vertices (evenly thinned); the final
