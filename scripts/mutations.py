@@ -158,6 +158,12 @@ MUTATIONS = {
         "        s[new] = 0.5",
         ["tests/test_fit.py"],
     ),
+    "arap_part_one_ring_only": (
+        "vesselgp/deform.py",
+        "    Fp = F[ring[F].any(axis=1)]",
+        "    Fp = F[free[F].any(axis=1)]",
+        ["tests/test_deform.py"],
+    ),
     "join_anchor_sign": (
         "vesselgp/join.py",
         "rotate(target.normal, target.tangent, -self.anchor_offset)",

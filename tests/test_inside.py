@@ -41,3 +41,21 @@ def test_axis_grazing_the_wall_raises(tube):
     s, P, r = _axis(tube, 1.35)  # inside, 0.1 radius from the wall
     with pytest.raises(vesselgp.NotTubularError, match="radii of the wall"):
         check_axis_inside(tube.V, tube.F, s, P, r)
+
+
+def test_one_winding_checks_several_axes_and_refuses_another_mesh(tube):
+    """A SurfaceWinding built once checks the true axis (inside) and an offset one (outside) as the
+    one-off check does; a winding of another mesh is refused."""
+    from vesselgp.errors import OptionError
+    from vesselgp.inside import SurfaceWinding
+
+    wind = SurfaceWinding(tube.V, tube.F)
+    s, P, r = _axis(tube, 0.0)
+    w, d = wind(P[5:-5])
+    assert np.all(np.abs(np.abs(w) - 1) < 0.05) and np.all(np.abs(d - 1.5) < 0.2)
+    check_axis_inside(tube.V, tube.F, s, P, r, winding=wind)
+    s, P, r = _axis(tube, 3.0)
+    with pytest.raises(vesselgp.NotTubularError, match="leaves the surface"):
+        check_axis_inside(tube.V, tube.F, s, P, r, winding=wind)
+    with pytest.raises(OptionError, match="another|not this one"):
+        check_axis_inside(tube.V[:-1], tube.F[:-1], s, P, r, winding=wind)

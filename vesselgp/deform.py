@@ -401,9 +401,11 @@ class RodDeformer:
                 arap_iterations = tol.DEFORM_REFINE_ITERATIONS if method == "rod_arap" else tol.DEFORM_ARAP_ITERATIONS
             self.arap_iterations = int(arap_iterations)
             if self.arap_iterations > 0:
+                self._arap_part = _arap_part(F, self.n, self.handles)
+                Vp, Fp, bp = self._arap_part
                 self._arap = igl.ARAPData()
                 self._arap.max_iter = self.arap_iterations
-                igl.arap_precomputation(V, F, 3, self.handles.astype(np.int32), self._arap)
+                igl.arap_precomputation(V[Vp], Fp, 3, bp.astype(np.int32), self._arap)
         if method == "laplacian":
             Lc = igl.cotmatrix(V, F)
             M = igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
@@ -431,11 +433,15 @@ class RodDeformer:
         if self._arap is None:
             raise OptionError(f"method {self.method!r} with {self.arap_iterations} ARAP iterations has no ARAP data")
         it = self.arap_iterations if iterations is None else int(iterations)
+        Vp, _, bp = self._arap_part
+        out = np.array(X, dtype=np.float64, order="C")
+        out[self.handles] = bc
         self._arap.max_iter = it
         try:
-            return igl.arap_solve(bc, self._arap, np.array(X, dtype=np.float64, order="C"))
+            out[Vp] = igl.arap_solve(np.ascontiguousarray(out[Vp[bp]]), self._arap, np.ascontiguousarray(out[Vp]))
         finally:
             self._arap.max_iter = self.arap_iterations
+        return out
 
     def laplacian(self, bc):
         """Bi-Laplacian editing with the handles at ``bc`` (paper ref. [7] without rotation updates)."""
@@ -651,6 +657,30 @@ class RodPlacement:
         X = np.array(X, dtype=np.float64, order="C")
         X[d.handles] = bc
         return X
+
+
+def _arap_part(F, n, handles):
+    """The part of the mesh ARAP has to see: vertices ``Vp`` (sorted ids), faces ``Fp`` in them, handles ``bp``.
+
+    libigl's ARAP energy for triangles in 3-D (spokes and rims) sums, for each vertex ``i``,
+    the edges of the faces around ``i`` against one rotation ``R_i`` fitted to those faces.
+    An edge with a free (non-handle) endpoint lies in faces that touch a free vertex; the
+    rotations its terms use belong to the vertices of those faces, and each such rotation is
+    fitted to all faces around its vertex. Those faces (two face rings about the free
+    vertices) therefore hold every term that depends on a free vertex, and ARAP on them gives
+    the free vertices exactly what ARAP on the whole mesh does: the held part of a join (a
+    third of paper case 2) is left out of the factorisation and of every iteration.
+    """
+    free = np.ones(n, bool)
+    free[handles] = False
+    ring = np.zeros(n, bool)
+    ring[F[free[F].any(axis=1)].ravel()] = True
+    Fp = F[ring[F].any(axis=1)]
+    Vp = np.unique(Fp)
+    local = np.full(n, -1, np.int64)
+    local[Vp] = np.arange(len(Vp))
+    bp = np.flatnonzero(~free[Vp])
+    return Vp, np.ascontiguousarray(local[Fp]), bp
 
 
 def deform_vessel(V, F, fixed, moving, target, angle=0.0, *, method="rod_arap", gc=None, ends=None,

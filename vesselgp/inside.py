@@ -24,11 +24,11 @@ from scipy.spatial import cKDTree
 
 from . import tolerances as tol
 from ._arrays import thinned
-from .errors import NotTubularError
+from .errors import NotTubularError, OptionError
 from .mesh import bbox_diagonal, format_point, mesh_topology
 from .mesh._geometry import voronoi_areas
 
-__all__ = ["axis_winding", "check_axis_inside"]
+__all__ = ["SurfaceWinding", "axis_winding", "check_axis_inside"]
 
 
 def _closed_samples(V, F, area, loops):
@@ -79,6 +79,41 @@ def _point_cloud_winding(P, N, A, Q):
     return w / (4.0 * np.pi)
 
 
+class SurfaceWinding:
+    """The closed-surface samples and the k-d tree of one mesh, kept for repeated axis checks.
+
+    Built once per mesh (per-vertex normals, the fans over the boundary loops, the thinned
+    vertices' k-d tree); each call then costs only the winding sum and one query, so the
+    paths of a tree are checked against one set of samples. :func:`axis_winding` is the
+    one-off form.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+    area : (n,) float64, optional
+        Voronoi areas of the vertices (computed when omitted).
+    loops : sequence of (k,) int64, optional
+        Boundary loops following the faces' orientation
+        (:attr:`vesselgp.mesh.MeshTopology.boundary_loops`, computed when omitted).
+    """
+
+    def __init__(self, V, F, area=None, loops=None):
+        if area is None:
+            area = voronoi_areas(V, F)
+        if loops is None:
+            loops = mesh_topology(F, len(V)).boundary_loops
+        self.shape = (len(V), len(F))
+        self._samples = _closed_samples(V, F, area, loops)
+        self._tree = cKDTree(V[thinned(len(V), tol.INSIDE_SAMPLES)])
+        self.scale = bbox_diagonal(V)
+
+    def __call__(self, Q):
+        """Winding number ``w`` (q,) and distance ``d`` (q,) to the surface of query points ``Q`` (q, 3)."""
+        Q = np.ascontiguousarray(Q, dtype=np.float64)
+        return _point_cloud_winding(*self._samples, Q), self._tree.query(Q)[0]
+
+
 def axis_winding(V, F, Q, area=None, loops=None):
     """Generalized winding number of the closed surface at query points, and their distance to it.
 
@@ -101,18 +136,10 @@ def axis_winding(V, F, Q, area=None, loops=None):
     d : (q,) float64
         Distance to the nearest surface sample (a vertex of the thinned subset).
     """
-    if area is None:
-        area = voronoi_areas(V, F)
-    if loops is None:
-        loops = mesh_topology(F, len(V)).boundary_loops
-    P, N, A = _closed_samples(V, F, area, loops)
-    Q = np.ascontiguousarray(Q, dtype=np.float64)
-    w = _point_cloud_winding(P, N, A, Q)
-    d = cKDTree(V[thinned(len(V), tol.INSIDE_SAMPLES)]).query(Q)[0]
-    return w, d
+    return SurfaceWinding(V, F, area, loops)(Q)
 
 
-def check_axis_inside(V, F, s, points, radii, *, area=None, loops=None, ends_margin=None):
+def check_axis_inside(V, F, s, points, radii, *, area=None, loops=None, ends_margin=None, winding=None):
     """Raise :class:`NotTubularError` when the axis leaves the surface or grazes its wall.
 
     Parameters
@@ -132,6 +159,9 @@ def check_axis_inside(V, F, s, points, radii, *, area=None, loops=None, ends_mar
     ends_margin : float, optional
         Samples within this arc length of either end are not checked (an axis
         end sits on a cap or a loop's centre). Default: one mean radius.
+    winding : SurfaceWinding, optional
+        The samples of this mesh when already built (several axes of one mesh);
+        ``area`` and ``loops`` are then not used.
 
     Raises
     ------
@@ -143,15 +173,19 @@ def check_axis_inside(V, F, s, points, radii, *, area=None, loops=None, ends_mar
     keep = (s * length >= margin) & ((1 - s) * length >= margin)
     if not keep.any():
         return
-    w, d = axis_winding(V, F, points[keep], area, loops)
+    if winding is None:
+        winding = SurfaceWinding(V, F, area, loops)
+    elif winding.shape != (len(V), len(F)):
+        raise OptionError(f"winding was built for a mesh of {winding.shape[0]} vertices and {winding.shape[1]} "
+                          f"faces, not this one ({len(V)}, {len(F)}); build SurfaceWinding(V, F) of this mesh")
+    w, d = winding(points[keep])
     outside = np.abs(w) < tol.INSIDE_WINDING
     grazing = d < tol.INSIDE_CLEARANCE * radii[keep]
     bad = outside | grazing
     if not bad.any():
         return
     k = int(np.flatnonzero(bad)[0])
-    scale = bbox_diagonal(V)
-    where = f"at s = {s[keep][k]:.3f} (point {format_point(points[keep][k], scale)})"
+    where = f"at s = {s[keep][k]:.3f} (point {format_point(points[keep][k], winding.scale)})"
     what = (f"leaves the surface {where}, on {int(outside.sum())} of {int(keep.sum())} checked samples"
             if outside[k] else
             f"comes within {d[k] / radii[keep][k]:.2f} radii of the wall {where}")

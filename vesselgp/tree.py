@@ -43,7 +43,7 @@ from .branches import branch_decomposition, root_end
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
 from .fit import GeneralizedCylinder, checked_mesh, cylinder_from_axis, fit_generalized_cylinder, fixed_point
-from .inside import check_axis_inside
+from .inside import SurfaceWinding, check_axis_inside
 from .mesh import vessel_ends
 from .mesh._geometry import voronoi_areas
 from .rotations import minimal_rotation
@@ -393,8 +393,9 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     junctions, junction_branch, nodes = _junctions(raw, br.parent)
     branches, axes = _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu)
     paths, path_branches = _paths(V, area, caps, branches, axes, raw, br, root, lam, mu)
+    winding = SurfaceWinding(V, F, area, topo.boundary_loops)  # one set of samples for every path
     for p in paths:
-        check_axis_inside(V, F, p.s, p.centers, p.radii, area=area, loops=topo.boundary_loops)
+        check_axis_inside(V, F, p.s, p.centers, p.radii, winding=winding)
     return VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
                       path_branches=tuple(path_branches), vertex_branch=br.vertex_branch)
