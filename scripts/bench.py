@@ -319,6 +319,22 @@ def bench_join(n_target, repeat):
     row["angle_deg"] = float(np.degrees(r.angle))
     row["energy"] = float(r.energy)
     row["zero_twist_angle_deg"] = float(np.degrees(p.zero_twist_angle))
+    # issue #16's yardstick: one plain libigl ARAP solve of the same mesh and handles (precompute and
+    # 10 iterations from the rest shape, the handles at the optimum)
+    import igl
+
+    bc = p.placement.handle_positions(r.angle)
+
+    def plain_arap():
+        data = igl.ARAPData()
+        data.max_iter = 10
+        igl.arap_precomputation(c.V, c.F, 3, d.handles.astype(np.int32), data)
+        X = c.V.copy()
+        X[d.handles] = bc
+        return igl.arap_solve(bc, data, X)
+
+    row["plain_arap_s"], _ = timeit(plain_arap, rep)
+    row["minimize_over_plain_arap"] = row["minimize_total_s"] / row["plain_arap_s"]
     return row
 
 
@@ -373,6 +389,8 @@ def evaluate_targets(fit_rows, join_rows):
             add(f"#16 peak memory, {fmt_size(r['vertices'])} vertices", r["kb_per_vertex"], 0.7, "KB/vertex", r)
     j50 = closest(join_rows, 50_000)
     add("minimize_torsion incl. setup, ~50k join", j50 and j50["minimize_total_s"], 5.0, "s", j50)
+    add("#16 minimize_torsion incl. setup / plain ARAP (precompute + 10 iterations), ~50k join",
+        j50 and j50.get("minimize_over_plain_arap"), 1.0, "x", j50)
     for r in join_rows:
         add(f"energy eval / ARAP iteration, {fmt_size(r['vertices'])} join", r["energy_over_arap_iteration"], 3.0,
             "x", r, f"eval = rod + {r['arap_iterations_per_eval']} ARAP iterations + meter")
@@ -419,13 +437,14 @@ def markdown(fit_rows, join_rows, targets, mach, date):
         L.append("")
         L.append("| vertices | setup (fit + meter + ARAP factorisation) | one energy eval | one ARAP iteration "
                  "| eval / ARAP iter | rod placement | meter call | minimize_torsion (search) | total incl. setup "
-                 "| n_evals |")
-        L.append("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+                 "| n_evals | plain ARAP (pre + 10 it.) | total / plain ARAP |")
+        L.append("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
         for r in join_rows:
             L.append(f"| {r['vertices']:,} | {_f(r['setup_s'])} | {_f(r['energy_eval_s'])} "
                      f"| {_f(r['arap_iteration_s'])} | {_f(r['energy_over_arap_iteration'], 1)} "
                      f"| {_f(r['rod_placement_s'])} | {_f(r['meter_call_s'])} | {_f(r['minimize_search_s'])} "
-                     f"| {_f(r['minimize_total_s'])} | {r['n_evals']} |")
+                     f"| {_f(r['minimize_total_s'])} | {r['n_evals']} | {_f(r.get('plain_arap_s'))} "
+                     f"| {_f(r.get('minimize_over_plain_arap'), 2)} |")
         L.append("")
     L.append("| target | vertices | measured | limit | status |")
     L.append("|---|---:|---:|---:|---|")

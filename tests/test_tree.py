@@ -264,8 +264,15 @@ def test_real_y_paths_stay_inside_the_lumen():
 
 @pytest.fixture(scope="module")
 def fine_tree():
+    from vesselgp.fit import checked_mesh
+    from vesselgp.mesh.geodesic import GeodesicDistances
+
     t = synthetic_tree(levels=2, target_vertices=200_000)
-    return t, branch_decomposition(t.V, t.F, vesselgp.vessel_ends(t.V, t.F)), fit_vessel_tree(t.V, t.F)
+    # one end search and one heat factorisation for both (the fit reuses what it is given)
+    ends = vesselgp.vessel_ends(t.V, t.F)
+    geo = GeodesicDistances(t.V, checked_mesh(t.V, t.F)[1])
+    return (t, branch_decomposition(t.V, t.F, ends, geodesics=geo),
+            fit_vessel_tree(t.V, t.F, ends=ends, geodesics=geo))
 
 
 def test_shared_lengths_are_the_junction_distances_on_a_fine_mesh(fine_tree):
