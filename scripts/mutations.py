@@ -164,6 +164,12 @@ MUTATIONS = {
         "    Fp = F[free[F].any(axis=1)]",
         ["tests/test_deform.py"],
     ),
+    "carried_frame_not_projected": (
+        "vesselgp/axis.py",
+        "    U = U - np.einsum(\"ij,ij->i\", U, T)[:, None] * T\n    n = np.sqrt(",
+        "    n = np.sqrt(",
+        ["tests/test_records.py"],
+    ),
     "join_anchor_sign": (
         "vesselgp/join.py",
         "rotate(target.normal, target.tangent, -self.anchor_offset)",

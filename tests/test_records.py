@@ -180,3 +180,24 @@ def test_projection_and_frames_do_not_depend_on_the_row_chunks(monkeypatch):
     # the foot of each point is where its offset is normal to the axis (local T coordinate 0)
     assert np.abs(out[7][2][:, 0]).max() < 1e-6
     np.testing.assert_allclose(out[7][0], s_true, atol=2e-3)
+
+
+def test_a_carried_frame_is_the_previous_frame_projected_and_falls_back_to_the_rmf():
+    """The fit's inner iterations carry the previous axis's U over (projected onto the new normal
+    planes) instead of recomputing the RMF: onto the same axis that is the RMF itself; onto a
+    slightly moved axis an orthonormal frame with U normal to the new tangent, within the move's
+    angle of the old U; onto an axis turned far from it, the RMF."""
+    nodes = _hairpin()
+    ax = Axis(nodes)
+    np.testing.assert_allclose(Axis(nodes, carry=ax).frames, ax.frames, atol=1e-12)
+    moved = nodes + 0.02 * np.sin(np.arange(len(nodes)))[:, None] * np.array([0.0, 0.3, 1.0])
+    new = Axis(moved, carry=ax)
+    T, U, V = new.frames[:, 0], new.frames[:, 1], new.frames[:, 2]
+    assert np.abs(np.einsum("ij,ij->i", T, U)).max() < 1e-12
+    np.testing.assert_allclose(np.linalg.norm(U, axis=1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(np.cross(T, U), V, atol=1e-12)
+    turn = np.arccos(np.clip(np.einsum("ij,ij->i", T, ax.frames[:, 0]), -1, 1))
+    assert np.all(np.arccos(np.clip(np.einsum("ij,ij->i", U, ax.frames[:, 1]), -1, 1)) <= turn + 1e-9)
+    assert turn.max() > 1e-3  # the axis really moved
+    turned = np.c_[nodes[:, 0], 0.0 * nodes[:, 0], nodes[:, 1]]  # the hairpin stood up: U is now along T
+    np.testing.assert_allclose(Axis(turned, carry=ax).frames, Axis(turned).frames, atol=1e-12)

@@ -81,6 +81,14 @@ class Axis:
         a fixed coordinate direction for a straight axis (documented degenerate case).
     samples_per_node : int, optional
         Dense samples per node spacing (default ``tolerances.GC_SAMPLES_PER_NODE``).
+    carry : Axis, optional
+        An axis with as many dense samples (the fixed point's previous iteration): its U
+        at each sample, projected onto the new normal plane, is the frame instead of the
+        RMF. Any smooth frame serves the inner iterations of the fit (Eq. 3 is solved in
+        it, not about it), and the projection costs a few vector operations where the
+        double reflection costs a prefix product; the fit's final axis always has its RMF.
+        Where the tangent has turned by more than ``tolerances.FRAME_CARRY_MAX_TURN``
+        since, the RMF is computed after all.
 
     Attributes
     ----------
@@ -100,16 +108,19 @@ class Axis:
         When the nodes collapse to a point.
     """
 
-    def __init__(self, nodes, initial_normal=None, samples_per_node=None):
+    def __init__(self, nodes, initial_normal=None, samples_per_node=None, carry=None):
         spn = tol.GC_SAMPLES_PER_NODE if samples_per_node is None else int(samples_per_node)
         M = spn * (len(nodes) - 1) + 1
         over = -(-tol.GC_ARCLENGTH_CHORDS_PER_NODE * (len(nodes) - 1) // M)  # ceil
         self.points, T, self.length = resample_arclength(nodes, M, with_tangents=True, oversample=max(over, 1))
         self.s = np.linspace(0.0, 1.0, M)
-        if initial_normal is None:
-            initial_normal = _default_normal(self.points, T[0])
-        T, U, V = rotation_minimizing_frames(self.points, T, initial_normal=initial_normal)
-        self.frames = np.stack([T, U, V], axis=1)
+        self.frames = _carried_frames(carry, T) if carry is not None and len(carry.s) == M else None
+        if self.frames is None:
+            if initial_normal is None:
+                initial_normal = _default_normal(self.points, T[0])
+            T, U, V = rotation_minimizing_frames(self.points, T, initial_normal=initial_normal)
+            self.frames = np.stack([T, U, V], axis=1)
+        T = self.frames[:, 0]
         # curvature vector dT/ds (per mesh unit) at the dense samples
         self.kvec = np.gradient(T, self.s * self.length, axis=0)
         self.table = _segment_table(self.points, self.frames, self.kvec)
@@ -196,6 +207,18 @@ def _row_chunks(n):
     """Slices of at most ``tolerances.AXIS_ROW_CHUNK`` consecutive rows covering ``range(n)``."""
     step = tol.AXIS_ROW_CHUNK
     return [slice(a, min(a + step, n)) for a in range(0, n, step)] or [slice(0, 0)]
+
+
+def _carried_frames(carry, T):
+    """Frames (M, 3, 3) from ``carry``'s U projected onto the planes normal to ``T``, or None
+    where the tangent turned by more than ``tolerances.FRAME_CARRY_MAX_TURN`` (see :class:`Axis`)."""
+    U = carry.frames[:, 1]
+    U = U - np.einsum("ij,ij->i", U, T)[:, None] * T
+    n = np.sqrt(np.einsum("ij,ij->i", U, U))
+    if not np.all(n > np.cos(tol.FRAME_CARRY_MAX_TURN)):
+        return None
+    U /= n[:, None]
+    return np.stack([T, U, np.cross(T, U)], axis=1)
 
 
 def _default_normal(points, t0):

@@ -532,13 +532,14 @@ class _Iteration:
     rejected: np.ndarray | None = None
     inside: np.ndarray | None = None
     step: float = float("inf")
+    axis: Axis | None = None  # the axis this iteration worked on (its frame is carried to the next)
 
 
 def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
     """One outer iteration: project (s_i), circle-fit correction (Eq. 3), radius (Eq. 5), resample."""
     nodes = it.nodes
     K = len(nodes)
-    axis = Axis(nodes, initial_normal)
+    axis = Axis(nodes, initial_normal, carry=it.axis)
     s_raw = axis.project(Vs, it.s, window, None if window is not None else tol.GC_NEWTON_STEPS_WARM)
     frozen = it.rejected is not None
     # once the outlier set is fixed, so is the set of vertices within the axis's range: a vertex
@@ -565,7 +566,7 @@ def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
     # geometrically) the next move, predicted as step^2 / previous step, would
     predicted = step * step / it.step if frozen and step < it.step else step
     return _Iteration(resample_arclength(nodes, K), s_next, radii, it.count + 1,
-                      min(step, predicted) < tol.GC_CONVERGENCE * rscale, rejected, kept, step)
+                      min(step, predicted) < tol.GC_CONVERGENCE * rscale, rejected, kept, step, axis)
 
 
 def cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids):

@@ -106,6 +106,9 @@ GC_NEWTON_STEPS = 3
 GC_NEWTON_STEPS_WARM = 1
 #: Dense samples of the axis per node spacing, used to project vertices onto the axis.
 GC_SAMPLES_PER_NODE = 8
+#: The fit's inner iterations carry the previous axis's frame over by projection while no
+#: tangent has turned by more than this (radians) since; beyond it they take the RMF.
+FRAME_CARRY_MAX_TURN = 0.5
 #: The axis spline's arc length is measured on this many chords per node spacing (relative
 #: chord error (kappa h)^2 / 24: 1.1e-6 for a bend of radius 3 r at h = r / 64, far below the
 #: fit's convergence tolerance).
