@@ -96,7 +96,8 @@ class Axis:
         Uniform normalised arc length of the dense samples.
     points : (M, 3) float64
     frames : (M, 3, 3) float64
-        RMF, rows ``T, U, V`` (double reflection, paper Section 1).
+        RMF, rows ``T, U, V`` (double reflection, paper Section 1); the carried
+        frame instead when ``carry`` is given and usable.
     kvec : (M, 3) float64
         Curvature vector ``dT/ds`` per mesh unit.
     length : float
@@ -362,6 +363,7 @@ def local_coords(axis, P, s):
     The stretch is :meth:`Axis.stretch` of the offset. Rows are handled
     ``tolerances.AXIS_ROW_CHUNK`` at a time (bounded temporaries).
     """
+    s = np.asarray(s, float)
     local, jac = np.empty((len(P), 3)), np.empty(len(P))
     for rows in _row_chunks(len(P)):
         pts, fr = axis.at(s[rows])
