@@ -332,7 +332,7 @@ def test_a_thinned_fit_matches_the_truth_and_puts_every_vertex_at_its_foot(case,
     assert d.max() <= axis_pct / 100 * R0, f"axis off by {d.max() / R0:.3%} of the radius"
     w = gc.vertex_weight > 0
     assert np.abs(gc.vertex_local[w, 0]).max() < 1e-6 * gc.length
-    s_true = _orient(gc, ves.truth)[0] != 0
-    s = 1 - gc.vertex_s if s_true else gc.vertex_s
+    reversed_axis = _orient(gc, ves.truth)[0] != 0
+    s = 1 - gc.vertex_s if reversed_axis else gc.vertex_s
     inn = (ves.truth.vertex_s > 0.05) & (ves.truth.vertex_s < 0.95)
     assert np.abs(s - ves.truth.vertex_s)[inn].max() * gc.length < 0.05 * R0

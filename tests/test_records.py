@@ -199,5 +199,5 @@ def test_a_carried_frame_is_the_previous_frame_projected_and_falls_back_to_the_r
     turn = np.arccos(np.clip(np.einsum("ij,ij->i", T, ax.frames[:, 0]), -1, 1))
     assert np.all(np.arccos(np.clip(np.einsum("ij,ij->i", U, ax.frames[:, 1]), -1, 1)) <= turn + 1e-9)
     assert turn.max() > 1e-3  # the axis really moved
-    turned = np.c_[nodes[:, 0], 0.0 * nodes[:, 0], nodes[:, 1]]  # the hairpin stood up: U is now along T
+    turned = np.c_[nodes[:, 0], 0.0 * nodes[:, 0], nodes[:, 1]]  # the hairpin stood up: tangents turn by up to 90 degrees
     np.testing.assert_allclose(Axis(turned, carry=ax).frames, Axis(turned).frames, atol=1e-12)

@@ -82,7 +82,8 @@ class Axis:
     samples_per_node : int, optional
         Dense samples per node spacing (default ``tolerances.GC_SAMPLES_PER_NODE``).
     carry : Axis, optional
-        An axis with as many dense samples (the fixed point's previous iteration): its U
+        An axis with as many dense samples (the fixed point's previous iteration; ignored
+        when the counts differ): its U
         at each sample, projected onto the new normal plane, is the frame instead of the
         RMF. Any smooth frame serves the inner iterations of the fit (Eq. 3 is solved in
         it, not about it), and the projection costs a few vector operations where the

@@ -70,6 +70,7 @@ from .curves import rotation_minimizing_frames, transport_angle
 from .errors import EndsError, FrameError, MismatchError, OptionError
 from .fit import GeneralizedCylinder, fit_generalized_cylinder
 from .mesh import MeshTopology
+from .mesh._geometry import voronoi_areas
 from .rotations import minimal_rotation, rotate, unit, unit_rows
 
 log = logging.getLogger(__name__)
@@ -408,7 +409,7 @@ class RodDeformer:
                 igl.arap_precomputation(V[Vp], Fp, 3, bp.astype(np.int32), self._arap)
         if method == "laplacian":
             Lc = igl.cotmatrix(V, F)
-            M = igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_VORONOI).diagonal()
+            M = voronoi_areas(V, F)
             A = (Lc.T @ sp.diags(1.0 / M) @ Lc).tocsc()
             self._mqwf = igl.min_quad_with_fixed_data()
             igl.min_quad_with_fixed_precompute(A, self.handles, sp.csc_matrix((0, self.n)), True, self._mqwf)
