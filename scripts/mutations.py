@@ -25,6 +25,24 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    "bend_curvature_per_unit_s": (
+        "vesselgp/inside.py",
+        "kappa = np.linalg.norm(np.gradient(np.asarray(tangents, np.float64), arc, axis=0), axis=1)",
+        "kappa = np.linalg.norm(np.gradient(np.asarray(tangents, np.float64), s, axis=0), axis=1)",
+        ["tests/test_inside.py"],
+    ),
+    "fit_bend_unchecked": (
+        "vesselgp/fit.py",
+        "    check_cylinder_bend(gc, bbox_diagonal(V))\n    return gc",
+        "    return gc",
+        ["tests/test_fit.py"],
+    ),
+    "tree_branch_bend_unchecked": (
+        "vesselgp/tree.py",
+        "        check_cylinder_bend(b, winding.scale)",
+        "        pass",
+        ["tests/test_tree.py"],
+    ),
     "circle_fit_regulariser_weight": (
         "vesselgp/axis.py",
         "Q = np.concatenate([E[:-2], -2.0 * E[1:-1], E[2:]], axis=1)",

@@ -45,8 +45,8 @@ from .axis import (Axis, checked_solution, circle_fit_correction, hat, interp_fr
                    solve_banded_spd)
 from .curves import chord_length, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError
-from .inside import check_axis_inside
-from .mesh import mesh_scale, mesh_topology, select_ends, vessel_ends
+from .inside import check_axis_bend, check_axis_inside
+from .mesh import bbox_diagonal, mesh_scale, mesh_topology, select_ends, vessel_ends
 from .mesh.geodesic import GeodesicDistances
 from .mesh._geometry import voronoi_areas
 
@@ -406,7 +406,10 @@ def fit_generalized_cylinder(
         Zero-area faces themselves are left out of the area weights.
     NotTubularError, EndsError
         No two ends, ambiguous ends on a branching mesh, or a vessel shorter
-        than its diameter.
+        than its diameter; a fitted axis that leaves the surface or grazes its
+        wall (:func:`vesselgp.inside.check_axis_inside`), or that bends tighter
+        than its radius (:func:`vesselgp.inside.check_axis_bend`: a sparsely
+        meshed non-circular section can make the fixed point kink).
 
     Examples
     --------
@@ -444,7 +447,14 @@ def fit_generalized_cylinder(
     s_raw = axis.project(V, it.s if sub.step == 1 else _spread_to_neighbours(topo.adjacency, sub, it.s), None)
     gc = cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids)
     check_axis_inside(V, F, gc.s, gc.centers, gc.radii, area=wall_area, loops=topo.boundary_loops)
+    check_cylinder_bend(gc, bbox_diagonal(V))
     return gc
+
+
+def check_cylinder_bend(gc, scale):
+    """:func:`vesselgp.inside.check_axis_bend` of a fitted cylinder's dense axis (mesh size ``scale``)."""
+    check_axis_bend(gc.dense_s, gc.length, gc.dense_frames[:, 0], gc.radius_at(gc.dense_s),
+                    points=gc.dense_points, scale=scale)
 
 
 def _spread_to_neighbours(adjacency, sub, s_sub):

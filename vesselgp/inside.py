@@ -15,6 +15,13 @@ The surface is represented by an evenly thinned subset of its vertices (with
 area-weighted normals and Voronoi areas scaled by the thinning) and by fan
 triangles closing each boundary loop, so the check costs a few tens of
 milliseconds at any mesh size.
+
+:func:`check_axis_bend` is the second half of the check: a tube of radius ``r``
+about an axis of curvature ``kappa`` is the one-to-one image of its
+``(s, theta, rho)`` coordinates (the normal planes of nearby axis points do not
+cross inside it) only where ``kappa r < 1``. A fitted axis that bends tighter
+than its radius has left the tubular model: the sections of Eq. 1-5 overlap, and
+the fit is not the vessel's centre line, whether or not it stays inside.
 """
 from __future__ import annotations
 
@@ -28,7 +35,7 @@ from .errors import NotTubularError, OptionError
 from .mesh import bbox_diagonal, format_point, mesh_topology
 from .mesh._geometry import voronoi_areas
 
-__all__ = ["SurfaceWinding", "axis_winding", "check_axis_inside"]
+__all__ = ["SurfaceWinding", "axis_winding", "check_axis_bend", "check_axis_inside"]
 
 
 def _closed_samples(V, F, area, loops):
@@ -192,4 +199,70 @@ def check_axis_inside(V, F, s, points, radii, *, area=None, loops=None, ends_mar
     raise NotTubularError(
         f"the fitted axis {what}; likely an end that was not detected (pass ends=, see vesselgp.vessel_ends), "
         "a staircase (voxel) surface (smooth it: vesselgp.clean_mesh), or a U-turn tighter than the radius"
+    )
+
+
+def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends_margin=None):
+    """Raise :class:`NotTubularError` where the axis bends tighter than its radius.
+
+    The curvature is ``|dT/ds|`` of the unit tangents by central differences; the
+    condition is ``kappa r < tolerances.GC_MAX_BEND`` (1: the tube map is
+    one-to-one, see the module notes). A straight axis (``kappa = 0``, no Frenet
+    normal) passes; nothing here needs one.
+
+    Parameters
+    ----------
+    s : (q,) float64
+        Normalised arc length of the axis samples, increasing (dense: a few per radius).
+    length : float
+        Arc length of the axis, mesh units.
+    tangents : (q, 3) float64
+        Unit tangents at the samples.
+    radii : (q,) float64
+        Fitted radius at each sample.
+    points : (q, 3) float64, optional
+        The samples, to name the offending one.
+    scale : float, optional
+        The mesh's size, for the printed point's digits (default: ``length``).
+    ends_margin : float, optional
+        Samples within this arc length of either end are not checked (an axis end
+        turns into a cap or a junction). Default: one mean radius.
+
+    Raises
+    ------
+    NotTubularError
+        Naming the first offending ``s`` (and its point), ``kappa r`` there, and
+        the likely causes and remedies.
+
+    Examples
+    --------
+    Three quarters of a circle of bend radius 2 (arc length 3 pi) with a tube of radius 1
+    (kappa r = 0.5) passes; with radius 3 it does not.
+
+    >>> t = np.linspace(0, 1.5 * np.pi, 400)
+    >>> T = np.c_[-np.sin(t), np.cos(t), 0 * t]
+    >>> check_axis_bend(t / t[-1], 3 * np.pi, T, np.full(400, 1.0))
+    >>> check_axis_bend(t / t[-1], 3 * np.pi, T, np.full(400, 3.0))
+    Traceback (most recent call last):
+    ...
+    vesselgp.errors.NotTubularError: the fitted axis bends tighter than its radius at s = 0.32...: curvature x radius = 1.50 (a tube needs less than 1; ...
+    """
+    s = np.asarray(s, np.float64)
+    arc = s * float(length)
+    kappa = np.linalg.norm(np.gradient(np.asarray(tangents, np.float64), arc, axis=0), axis=1)
+    radii = np.asarray(radii, np.float64)
+    margin = float(np.mean(radii)) if ends_margin is None else float(ends_margin)
+    keep = (arc >= margin) & (float(length) - arc >= margin)
+    bad = keep & (kappa * radii >= tol.GC_MAX_BEND)
+    if not bad.any():
+        return
+    k = int(np.flatnonzero(bad)[0])
+    where = f"at s = {s[k]:.3f}"
+    if points is not None:
+        where += f" (point {format_point(np.asarray(points)[k], float(length) if scale is None else scale)})"
+    raise NotTubularError(
+        f"the fitted axis bends tighter than its radius {where}: curvature x radius = {kappa[k] * radii[k]:.2f} "
+        f"(a tube needs less than {tol.GC_MAX_BEND:g}; its sections would overlap); likely too few vertices "
+        "around a non-circular section (remesh finer, e.g. pymeshlab meshing_isotropic_explicit_remeshing, "
+        "or fit with a stiffer axis, e.g. lam=1.0), or a U-turn tighter than the radius"
     )

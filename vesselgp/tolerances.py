@@ -121,6 +121,9 @@ INSIDE_SAMPLES = 3000
 INSIDE_WINDING = 0.5
 #: An axis sample nearer the wall than this fraction of the local radius grazes it.
 INSIDE_CLEARANCE = 0.2
+#: A fitted axis must bend less tightly than its radius: curvature x radius below this
+#: (1: the tube's normal sections do not overlap; vesselgp.inside.check_axis_bend).
+GC_MAX_BEND = 1.0
 #: Printed coordinates resolve this fraction of the mesh's bounding-box diagonal.
 PRINT_RESOLUTION = 1e-4
 

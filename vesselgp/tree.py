@@ -26,7 +26,9 @@ generalized cylinders (paper Section 2.1-2.2, applied branch by branch):
    the chain's vertices.
 6. **No silent wrong axis.** Every path is checked against the surface
    (:func:`vesselgp.inside.check_axis_inside`): an axis that leaves the lumen
-   or grazes the wall raises :class:`vesselgp.NotTubularError`.
+   or grazes the wall raises :class:`vesselgp.NotTubularError`; so does a branch
+   axis that bends tighter than its radius (:func:`vesselgp.inside.check_axis_bend`;
+   a path turns through its junctions, so only its branches are held to it).
 """
 from __future__ import annotations
 
@@ -42,7 +44,8 @@ from .axis import Axis
 from .branches import branch_decomposition, root_end
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
-from .fit import GeneralizedCylinder, checked_mesh, cylinder_from_axis, fit_generalized_cylinder, fixed_point
+from .fit import (GeneralizedCylinder, check_cylinder_bend, checked_mesh, cylinder_from_axis,
+                  fit_generalized_cylinder, fixed_point)
 from .inside import SurfaceWinding, check_axis_inside
 from .mesh import vessel_ends
 from .mesh._geometry import voronoi_areas
@@ -350,8 +353,9 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     EndsError
         Fewer than two ends, a staircase surface, or a root that is not an end index.
     NotTubularError
-        A path that leaves the surface or grazes its wall, branches that do not meet, or a
-        branch with no length (the message says where and why).
+        A path that leaves the surface or grazes its wall, a branch axis that bends tighter
+        than its radius, branches that do not meet, or a branch with no length (the message
+        says where and why).
 
     Examples
     --------
@@ -396,6 +400,8 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     winding = SurfaceWinding(V, F, area, topo.boundary_loops)  # one set of samples for every path
     for p in paths:
         check_axis_inside(V, F, p.s, p.centers, p.radii, winding=winding)
+    for b in branches:  # not the paths: they turn through the junctions by design
+        check_cylinder_bend(b, winding.scale)
     return VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
                       path_branches=tuple(path_branches), vertex_branch=br.vertex_branch)
