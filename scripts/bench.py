@@ -16,6 +16,9 @@ Vessel trees (default ~27k, 50k, 200k vertices, 4 tips; scripts/bench_tree.py):
 fit_vessel_tree beside one igl.cotmatrix of the same mesh and, when the VMTK
 peer venv exists, VMTK's centre lines and branch splitting on the same mesh.
 
+Small real meshes (``../shared/data/real``, 3-6k vertices; scripts/bench_small.py): our fit with
+end detection beside VMTK's best centre line of the same file, when the VMTK venv exists.
+
 Prints the machine, a table with targets and PASS/MISS, and writes JSON
 (default bench-results/bench.json).
 
@@ -468,6 +471,8 @@ def main(argv=None):
     ap.add_argument("--join-vessels-sizes", default="10k",
                     help="join_vessels (two vessels by end index) synthetic sizes; the real pair is always added")
     ap.add_argument("--no-twist", action="store_true", help="skip the twist_between pairs")
+    ap.add_argument("--no-small", action="store_true",
+                    help="skip the small real meshes (our fit beside VMTK's centre line; scripts/bench_small.py)")
     ap.add_argument("--no-batch", action="store_true", help="skip the Dask batch (16 meshes of 60k, ~4 min)")
     ap.add_argument("--quick", action="store_true", help="10k fit and join only (smoke test, a few seconds)")
     ap.add_argument("--repeat", type=int, default=3, help="timed repetitions below 300k vertices (median)")
@@ -543,6 +548,16 @@ def main(argv=None):
         except Exception as exc:
             errors.append(f"twist_between: {type(exc).__name__}: {exc}")
             print("    FAILED:", errors[-1], flush=True)
+    import bench_small
+
+    small_rows = []
+    if not args.no_small:
+        print("small real meshes ...", flush=True)
+        try:
+            small_rows = bench_small.bench_small(max(args.repeat, 5), vm)
+        except Exception as exc:
+            errors.append(f"small: {type(exc).__name__}: {exc}")
+            print("    FAILED:", errors[-1], flush=True)
     import bench_batch
 
     batch_row = None
@@ -556,7 +571,7 @@ def main(argv=None):
     mach["load_1min_at_end"] = round(os.getloadavg()[0], 2)
     targets = (evaluate_targets(fit_rows, join_rows) + bench_tree.tree_targets(tree_rows)
                + bench_join_vessels.join_vessels_targets(jv_rows) + bench_twist.twist_targets(tw_rows)
-               + bench_batch.batch_targets(batch_row))
+               + bench_small.small_targets(small_rows) + bench_batch.batch_targets(batch_row))
     date = datetime.date.today().isoformat()
     md = markdown(fit_rows, join_rows, targets, mach, date)
     if tree_rows:
@@ -565,6 +580,8 @@ def main(argv=None):
         md += "\n\n" + bench_join_vessels.join_vessels_markdown(jv_rows)
     if tw_rows:
         md += "\n\n" + bench_twist.twist_markdown(tw_rows)
+    if small_rows:
+        md += "\n\n" + bench_small.small_markdown(small_rows)
     if batch_row:
         md += "\n\n" + bench_batch.batch_markdown(batch_row)
     print()
@@ -574,7 +591,7 @@ def main(argv=None):
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps({"date": date, "machine": mach, "fit": fit_rows, "join": join_rows, "tree": tree_rows,
-                               "join_vessels": jv_rows, "twist": tw_rows, "batch": batch_row, "targets": targets, "errors": errors}, indent=1))
+                               "join_vessels": jv_rows, "twist": tw_rows, "small": small_rows, "batch": batch_row, "targets": targets, "errors": errors}, indent=1))
     print(f"\nwrote {out}")
     if args.markdown:
         Path(args.markdown).write_text(md + "\n")
