@@ -182,6 +182,24 @@ MUTATIONS = {
         "    Fp = F[free[F].any(axis=1)]",
         ["tests/test_deform.py"],
     ),
+    "interp_frame_not_reorthonormalised": (
+        "vesselgp/axis.py",
+        "    U -= _dot3(U, T) * T\n",
+        "",
+        ["tests/test_records.py", "tests/test_fit.py"],
+    ),
+    "local_coords_stretch_sign": (
+        "vesselgp/axis.py",
+        "        jac[rows] = 1.0 - _dot3(",
+        "        jac[rows] = 1.0 + _dot3(",
+        ["tests/test_fit.py"],
+    ),
+    "newton_step_without_curvature": (
+        "vesselgp/axis.py",
+        "            jac = np.maximum(1.0 - _dot3(k, d), tol.GC_MIN_STRETCH)",
+        "            jac = 1.0",
+        ["tests/test_records.py", "tests/test_fit.py"],
+    ),
     "carried_frame_not_projected": (
         "vesselgp/axis.py",
         "    U = U - np.einsum(\"ij,ij->i\", U, T)[:, None] * T\n    n = np.sqrt(",

@@ -356,7 +356,10 @@ class MeshTopology:
     def edge_lengths(self, V):
         """(e,) float64: length of each edge for vertex positions ``V`` ((n, 3) float64)."""
         E = self.edges
-        return np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
+        # take, not V[E[:, 0]]: numpy gathers rows that way about 3x faster; the same lengths
+        d = V.take(E[:, 0], axis=0)
+        d -= V.take(E[:, 1], axis=0)
+        return np.sqrt(np.einsum("ij,ij->i", d, d))
 
     def edge_graph(self, V):
         """(n, n) scipy.sparse.csr_array of float64: edge lengths, symmetric (for Dijkstra)."""
