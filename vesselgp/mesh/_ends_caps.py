@@ -108,9 +108,10 @@ def _patches(topo, N):
         Which of them are sharp (dihedral angle above ``tolerances.SHARP_EDGE_ANGLE``).
     """
     inner = np.flatnonzero(topo.edge_face_count == 2)
-    f, g = topo.edge_faces[inner].T
+    # take, not fancy indexing: numpy gathers rows that way 2-8x faster (the same rows)
+    f, g = topo.edge_faces.take(inner, axis=0).T
     N32 = N.astype(np.float32)  # (half the memory traffic of the gathers; ample for the test)
-    cos = np.einsum("ij,ij->i", N32[f], N32[g])  # the mesh is coherent: normals agree in sense
+    cos = np.einsum("ij,ij->i", N32.take(f, axis=0), N32.take(g, axis=0))  # coherent mesh: normals agree in sense
     is_sharp = cos < np.cos(tol.SHARP_EDGE_ANGLE)
     if not is_sharp.any():
         return None
