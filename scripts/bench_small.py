@@ -38,10 +38,12 @@ from pathlib import Path
 
 import numpy as np
 
+from bench import number
+from bench_tree import add_vmtk_options, vmtk_from_args
+
 REPO = Path(__file__).resolve().parents[1]
 REAL = REPO.parent / "shared" / "data" / "real"
 PEERS = REPO.parent / "shared" / "peers" / "vmtk"
-DEFAULT_VMTK = Path("/tmp/peer-vmtk/bin/python")
 #: The meshes, with what our fit is for each and how VMTK is seeded.
 MESHES = (("real coronary (open, 2 ends)", "xra_coronary_single_branch_open.stl", "single"),
           ("real capped artery (2 flat caps)", "dfemtoolz_artery_segment_lumen_capped.stl", "single"),
@@ -134,8 +136,7 @@ def small_targets(rows):
 
 
 def small_markdown(rows):
-    def f(x, nd=3):
-        return "-" if x is None else f"{x:.{nd}f}"
+    f = number
 
     L = ["Small real meshes: our fit with end detection (fastest of the repeats; median beside), one "
          "igl.cotmatrix, VMTK 1.5.2's best centre-line time on the same file (vtk or qhull Delaunay, "
@@ -153,14 +154,13 @@ def small_markdown(rows):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
-    ap.add_argument("--vmtk", help="python of the VMTK peer venv (default /tmp/peer-vmtk/bin/python if present)")
-    ap.add_argument("--no-vmtk", action="store_true")
+    add_vmtk_options(ap)
     ap.add_argument("--json", default=str(REPO / "bench-results" / "bench_small.json"))
     args = ap.parse_args(argv)
     import logging
 
     logging.basicConfig(level=logging.ERROR)
-    vm = None if args.no_vmtk else (Path(args.vmtk) if args.vmtk else (DEFAULT_VMTK if DEFAULT_VMTK.exists() else None))
+    vm = vmtk_from_args(args)
     rows = bench_small(args.repeat, vm)
     print(small_markdown(rows))
     targets = small_targets(rows)

@@ -30,11 +30,24 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import timeit
+from bench import number, timeit
 
 REPO = Path(__file__).resolve().parents[1]
 PEER = REPO.parent / "shared" / "peers" / "vmtk" / "vmtk_tree.py"
 DEFAULT_VMTK = Path("/tmp/peer-vmtk/bin/python")
+
+
+def add_vmtk_options(ap):
+    """``--vmtk PYTHON`` and ``--no-vmtk`` (shared with bench_small.py)."""
+    ap.add_argument("--vmtk", help="python of the VMTK peer venv (default /tmp/peer-vmtk/bin/python if present)")
+    ap.add_argument("--no-vmtk", action="store_true")
+
+
+def vmtk_from_args(args):
+    """The VMTK venv's python from those options, or None (not asked for, or not there)."""
+    if args.no_vmtk:
+        return None
+    return Path(args.vmtk) if args.vmtk else (DEFAULT_VMTK if DEFAULT_VMTK.exists() else None)
 
 
 def _errors(truth, P):
@@ -143,8 +156,7 @@ def tree_targets(rows):
 
 
 def tree_markdown(rows):
-    def f(x, nd=3):
-        return "-" if x is None else f"{x:.{nd}f}"
+    f = number
 
     L = ["Vessel trees: synthetic_tree(levels=2) (4 tips, root cut open); surface 'exact' is its marching-cubes "
          "surface (target_vertices=n), 'staircase' its voxel boundary smoothed by clean_mesh(smooth="
@@ -169,14 +181,13 @@ def main(argv=None):
     ap.add_argument("--staircase-sizes", default="27k",
                     help="sizes of the segmentation-like (smoothed voxel staircase) tree, VMTK beside the ~27k one")
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--vmtk", help="python of the VMTK peer venv (default /tmp/peer-vmtk/bin/python if present)")
-    ap.add_argument("--no-vmtk", action="store_true")
+    add_vmtk_options(ap)
     ap.add_argument("--json", default=str(REPO / "bench-results" / "bench_tree.json"))
     args = ap.parse_args(argv)
     import logging
 
     logging.basicConfig(level=logging.ERROR)
-    vm = None if args.no_vmtk else (Path(args.vmtk) if args.vmtk else (DEFAULT_VMTK if DEFAULT_VMTK.exists() else None))
+    vm = vmtk_from_args(args)
     rows = []
     jobs = [(tok, "exact") for tok in args.sizes.split(",") if tok.strip()]
     jobs += [(tok, "staircase") for tok in args.staircase_sizes.split(",") if tok.strip()]
