@@ -272,6 +272,18 @@ MUTATIONS = {
         "    beyond = (D @ d > -0.5 * r)",
         ["tests/test_join_vessels.py"],
     ),
+    "arap_rhs_without_face_average": (
+        "vesselgp/_arap.py",
+        "B / -3.0, bc, self._eq)",
+        "B / -2.0, bc, self._eq)",
+        ["tests/test_deform.py"],
+    ),
+    "arap_corner_edges_swapped": (
+        "vesselgp/_arap.py",
+        "h = w[:, [2, 0, 1]] - w[:, [1, 2, 0]]",
+        "h = w[:, [1, 2, 0]] - w[:, [2, 0, 1]]",
+        ["tests/test_deform.py"],
+    ),
 }
 
 

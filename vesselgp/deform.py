@@ -37,7 +37,8 @@ cylinder* first and the mesh second (method ``"rod_arap"``, the default):
    ``tolerances.DEFORM_END_BLEND`` times the range (smoothstep), so the ring
    and its neighbours do not disagree by the bend's rotation across the ring
    (which folded faces next to the cut end of a real iliac).
-5. **Refinement.** A few libigl ARAP iterations from that start with the
+5. **Refinement.** A few ARAP iterations (libigl's spokes-and-rims energy and
+   its local and global steps, :mod:`vesselgp._arap`) from that start with the
    fixed and moving vertices as handles (the factorisation is computed once).
 
 ``"rod"`` stops after step 4. ``"arap"`` (ARAP from the rest shape) and
@@ -64,6 +65,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import tolerances as tol
+from ._arap import ArapSolver
 from ._validate import as_mesh, as_vector
 from .axis import interp_frames
 from .curves import rotation_minimizing_frames, transport_angle
@@ -392,7 +394,7 @@ class RodDeformer:
         return float(np.max(np.linalg.norm(X[E[:, 0]] - X[E[:, 1]], axis=1) / self._edge_rest))
 
     def _factorise(self, arap_iterations):
-        """The target-free factorisations: libigl ARAP data or the bi-Laplacian's min_quad_with_fixed."""
+        """The target-free factorisations: the ARAP solver or the bi-Laplacian's min_quad_with_fixed."""
         V, F, method = self.V, self.F, self.method
         self._arap = None
         self._mqwf = None
@@ -404,9 +406,7 @@ class RodDeformer:
             if self.arap_iterations > 0:
                 self._arap_part = _arap_part(F, self.n, self.handles)
                 Vp, Fp, bp = self._arap_part
-                self._arap = igl.ARAPData()
-                self._arap.max_iter = self.arap_iterations
-                igl.arap_precomputation(V[Vp], Fp, 3, bp.astype(np.int32), self._arap)
+                self._arap = ArapSolver(V[Vp], Fp, bp)
         if method == "laplacian":
             Lc = igl.cotmatrix(V, F)
             M = voronoi_areas(V, F)
@@ -416,7 +416,7 @@ class RodDeformer:
             self._lap_B = np.ascontiguousarray(-(A @ V))
 
     def arap(self, X, bc, iterations=None):
-        """ARAP iterations (libigl ``arap_solve``) from ``X`` with the handles at ``bc``.
+        """ARAP iterations (libigl's spokes and rims, :mod:`vesselgp._arap`) from ``X`` with the handles at ``bc``.
 
         Parameters
         ----------
@@ -437,11 +437,7 @@ class RodDeformer:
         Vp, _, bp = self._arap_part
         out = np.array(X, dtype=np.float64, order="C")
         out[self.handles] = bc
-        self._arap.max_iter = it
-        try:
-            out[Vp] = igl.arap_solve(np.ascontiguousarray(out[Vp[bp]]), self._arap, np.ascontiguousarray(out[Vp]))
-        finally:
-            self._arap.max_iter = self.arap_iterations
+        out[Vp] = self._arap.solve(out[Vp], out[Vp[bp]], it)
         return out
 
     def laplacian(self, bc):
