@@ -284,6 +284,18 @@ MUTATIONS = {
         "h = w[:, [1, 2, 0]] - w[:, [2, 0, 1]]",
         ["tests/test_deform.py"],
     ),
+    "voronoi_obtuse_share_swapped": (
+        "vesselgp/mesh/_geometry.py",
+        "        share[k] = 0.25",
+        "        share[k] = 0.125",
+        ["tests/test_mesh.py"],
+    ),
+    "voronoi_circumcentre_weights_unscaled": (
+        "vesselgp/mesh/_geometry.py",
+        "bary = [c[0] * ln[0] / (ln[1] * ln[2]), c[1] * ln[1] / (ln[2] * ln[0]), c[2] * ln[2] / (ln[0] * ln[1])]",
+        "bary = [c[0] / (ln[1] * ln[2]), c[1] / (ln[2] * ln[0]), c[2] / (ln[0] * ln[1])]",
+        ["tests/test_mesh.py"],
+    ),
 }
 
 

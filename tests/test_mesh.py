@@ -400,3 +400,18 @@ def test_voronoi_areas_are_libigls_mass_matrix_in_any_chunks(monkeypatch, chunk)
     monkeypatch.setattr(tol, "AREA_FACE_CHUNK", chunk)
     np.testing.assert_allclose(voronoi_areas(V, F), truth, rtol=1e-12, atol=1e-15 * truth.max())
     assert voronoi_areas(V, F)[-1] == 0.0
+
+
+def test_voronoi_areas_of_known_triangles():
+    """Meyer et al.'s mixed areas by hand: an acute equilateral triangle shares its area in thirds;
+    a right triangle's circumcentre is its hypotenuse's midpoint (quarter, quarter, half); an obtuse
+    one gives a quarter of its area to the obtuse corner and an eighth to each other corner."""
+    from vesselgp.mesh._geometry import voronoi_areas
+
+    F = np.array([[0, 1, 2]])
+    eq = np.array([[0.0, 0, 0], [2, 0, 0], [1, np.sqrt(3), 0]])
+    np.testing.assert_allclose(voronoi_areas(eq, F), np.full(3, np.sqrt(3) / 3), rtol=1e-14)
+    right = np.array([[0.0, 0, 0], [2, 0, 0], [0, 2, 0]])  # area 2, right angle at corner 0
+    np.testing.assert_allclose(voronoi_areas(right, F), [1.0, 0.5, 0.5], rtol=1e-14)
+    obtuse = np.array([[0.0, 0, 0], [4, 0, 0], [2, 0.5, 0]])  # area 1, obtuse at corner 2
+    np.testing.assert_allclose(voronoi_areas(obtuse, F), [0.25, 0.25, 0.5], rtol=1e-14)

@@ -15,15 +15,46 @@ def face_vectors(V, F):
 def voronoi_areas(V, F):
     """Voronoi (mixed) area of each vertex: (n,) float64, libigl's Voronoi mass matrix diagonal.
 
-    ``igl.massmatrix`` is called on ``tolerances.AREA_FACE_CHUNK`` faces at a time and the
-    diagonals are summed (each face adds to its own corners only): the same areas, with
-    temporaries bounded instead of about 0.4 KB per vertex (peak memory, issue #16).
+    libigl's ``massmatrix_intrinsic`` (``MASSMATRIX_TYPE_VORONOI``, Meyer et al. 2003)
+    evaluated in numpy: each corner gets its share of the face cut at the circumcentre
+    (barycentric weights ``l_k cos_k``, normalised); in an obtuse face the obtuse corner
+    gets a quarter of its area and the others an eighth. The corner shares are computed
+    ``tolerances.AREA_FACE_CHUNK`` faces at a time (temporaries bounded, issue #16's
+    peak memory) and summed per vertex once. ``tests/test_mesh.py`` checks the result
+    against ``igl.massmatrix`` on the whole mesh. As there, a face with a zero-length edge
+    gives its corners NaN (a documented case: callers pass faces with an area, as
+    :func:`vesselgp.fit.checked_mesh` returns them).
     """
-    out = np.zeros(len(V))
-    for a in range(0, len(F), tol.AREA_FACE_CHUNK):
-        d = igl.massmatrix(V, F[a:a + tol.AREA_FACE_CHUNK], igl.MASSMATRIX_TYPE_VORONOI).diagonal()
-        out[:len(d)] += d
-    return out
+    m = len(F)
+    q = np.empty((3, m))
+    with np.errstate(divide="ignore", invalid="ignore"):  # NaN for faces without area, as libigl
+        for a in range(0, m, tol.AREA_FACE_CHUNK):
+            Fc = F[a:a + tol.AREA_FACE_CHUNK]
+            q[:, a:a + len(Fc)] = _corner_voronoi(V, Fc)
+    return np.bincount(F.T.ravel(), weights=q.ravel(), minlength=len(V))
+
+
+def _corner_voronoi(V, F):
+    """Each corner's Voronoi share of its face (libigl's Voronoi mass matrix entries): (3, m) float64."""
+    P = [np.ascontiguousarray(V.take(F[:, k], axis=0).T) for k in range(3)]  # component-major corners
+    e = [P[2] - P[1], P[0] - P[2], P[1] - P[0]]  # the edge opposite each corner
+    sq = [(x * x).sum(axis=0) for x in e]
+    cr = [e[2][1] * e[1][2] - e[2][2] * e[1][1], e[2][2] * e[1][0] - e[2][0] * e[1][2],
+          e[2][0] * e[1][1] - e[2][1] * e[1][0]]
+    dblA = np.sqrt(cr[0] ** 2 + cr[1] ** 2 + cr[2] ** 2)
+    # law of cosines: 2 |a| |b| cos(corner k) = |a|^2 + |b|^2 - |opposite|^2
+    c = [sq[1] + sq[2] - sq[0], sq[2] + sq[0] - sq[1], sq[0] + sq[1] - sq[2]]
+    ln = [np.sqrt(x) for x in sq]
+    bary = [c[0] * ln[0] / (ln[1] * ln[2]), c[1] * ln[1] / (ln[2] * ln[0]), c[2] * ln[2] / (ln[0] * ln[1])]
+    half = 0.5 * dblA / (bary[0] + bary[1] + bary[2])
+    part = [b * half for b in bary]
+    quads = np.stack([0.5 * (part[1] + part[2]), 0.5 * (part[2] + part[0]), 0.5 * (part[0] + part[1])])
+    for k in range(3):  # an obtuse corner k: a quarter of the face to it, an eighth to the others
+        obtuse = c[k] < 0
+        share = np.full((3, 1), 0.125)
+        share[k] = 0.25
+        quads[:, obtuse] = share * dblA[obtuse]
+    return quads
 
 
 def median_edge(V, F):
