@@ -73,6 +73,7 @@ def number(x, nd=3):
     """``x`` with ``nd`` decimals for a table, or "-" when missing."""
     return "-" if x is None else f"{x:.{nd}f}"
 
+
 def fmt_size(n):
     if n >= 1_000_000 and n % 100_000 == 0:
         return f"{n / 1e6:g}M"
