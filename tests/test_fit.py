@@ -338,6 +338,25 @@ def test_a_thinned_fit_matches_the_truth_and_puts_every_vertex_at_its_foot(case,
     assert np.abs(s - ves.truth.vertex_s)[inn].max() * gc.length < 0.05 * R0
 
 
+@pytest.mark.parametrize("per_vertex", [8, 0])
+def test_grid_cells_number_cubes_as_numpy_unique_does(per_vertex, monkeypatch):
+    """The coarse initialisation's vertex clustering: each vertex's cube of side h, numbered in the
+    lexicographic order of the cubes' integer coordinates; through the dense table (8 cells per vertex)
+    and the sorted branch (0). Truth: numpy's unique rows of the floored coordinates."""
+    from vesselgp import tolerances as tol
+    from vesselgp.fit import _grid_cells
+
+    monkeypatch.setattr(tol, "GRID_TABLE_PER_VERTEX", per_vertex)
+    rng = np.random.default_rng(4)
+    V = rng.normal(size=(3000, 3)) * [5.0, 1.0, 2.0] + [100.0, -40.0, 7.0]
+    V[:2] = V.min(axis=0)  # a vertex on the grid's corner
+    h = 0.7
+    _, truth = np.unique(np.floor((V - V.min(axis=0)) / h).astype(np.int64), axis=0, return_inverse=True)
+    cell = _grid_cells(V, h)
+    assert cell.dtype == np.int32
+    np.testing.assert_array_equal(cell, truth.ravel())
+
+
 def test_a_kinked_fit_of_a_sparse_elliptical_section_raises_and_a_stiffer_axis_fits():
     """Found in the #16 work: the elliptical (0.7) helix meshed with 14 vertices around (3k vertices,
     isotropic remesh) makes the fixed point kink at one node (12 % of the radius off the true axis,

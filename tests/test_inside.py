@@ -99,3 +99,22 @@ def test_bend_check_finds_a_local_kink_and_passes_a_straight_axis():
     with pytest.raises(vesselgp.NotTubularError, match=r"at s = 0\.59\d: curvature x radius = 1\.2"):
         check_axis_bend(s, L, T, np.full(n, 0.5))
     check_axis_bend(s, L, T, np.full(n, 0.5), ends_margin=12.5)  # the corner lies within 12.5 of the end
+
+
+@pytest.mark.parametrize("step", [1, 3, 7])
+def test_sampled_vertex_normals_are_libigls(step):
+    """The axis check's surface samples carry libigl's default (area-weighted) vertex normals, computed
+    only at the sampled vertices. Truth: igl.per_vertex_normals of the whole mesh, on an irregular
+    remeshed tube with one face collapsed to zero area (a degenerate face adds nothing)."""
+    import igl
+
+    from vesselgp.inside import _vertex_normals
+
+    ves = synthetic_vessel("arc", radius=1.0, n_around=16, seed=2)
+    V, F = ves.V.copy(), ves.F.copy()
+    V[F[5, 2]] = 0.5 * (V[F[5, 0]] + V[F[5, 1]])  # face 5 now has no area
+    sub = slice(0, len(V), step)
+    N = _vertex_normals(V, F, sub)
+    ref = igl.per_vertex_normals(V, F)[sub]
+    assert N.shape == ref.shape
+    np.testing.assert_allclose(N, ref, atol=1e-12)

@@ -4,9 +4,10 @@ from __future__ import annotations
 import igl
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from _data import REAL
 
-from vesselgp.errors import EndsError, InvalidMeshError
+from vesselgp.errors import EndsError, InvalidMeshError, MismatchError
 from vesselgp.io import read_mesh
 from vesselgp.mesh import MeshTopology, mesh_topology, stitch, vessel_ends
 from vesselgp.mesh.topology import MeshTopology as TopologyFromModule
@@ -161,6 +162,16 @@ def test_tables_match_brute_force_and_igl(seed):
     ef = t.edge_faces[t.face_edges]  # (m, 3, 2): the two faces of each corner edge
     other = np.where(ef[..., 0] == np.arange(len(F))[:, None], ef[..., 1], ef[..., 0])
     np.testing.assert_array_equal(other, TT)
+    # the shared symmetric pattern is libigl's adjacency, rows sorted; edge_matrix puts w[e] on both sides
+    A = t.adjacency
+    assert A.has_sorted_indices and A.nnz == 2 * t.n_edges
+    assert (A != sp.csr_array(igl.adjacency_matrix(F))).nnz == 0
+    w = rng.random(t.n_edges)
+    W = t.edge_matrix(w)
+    np.testing.assert_array_equal(W[E[:, 0], E[:, 1]], w)
+    np.testing.assert_array_equal(W[E[:, 1], E[:, 0]], w)
+    with pytest.raises(MismatchError, match="one value per edge"):
+        t.edge_matrix(w[:-1])
 
 
 @pytest.mark.parametrize("F, n", [([[0, 1]], None), ([[0, 1, -1]], None), ([[0, 1, 5]], 4),

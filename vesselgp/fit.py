@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import igl
 import numpy as np
@@ -39,14 +40,14 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import tolerances as tol
-from ._arrays import thinned, unique_rows
+from ._arrays import thinned
 from ._validate import as_mesh, as_vector
 from .axis import (Axis, checked_solution, circle_fit_correction, hat, interp_frames, local_coords,
                    solve_banded_spd)
 from .curves import chord_length, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError
 from .inside import check_axis_bend, check_axis_inside
-from .mesh import bbox_diagonal, mesh_scale, mesh_topology, select_ends, vessel_ends
+from .mesh import MeshTopology, bbox_diagonal, mesh_scale, mesh_topology, select_ends, vessel_ends
 from .mesh.geodesic import GeodesicDistances
 from .mesh._geometry import voronoi_areas
 
@@ -218,23 +219,20 @@ def _path_mask(V, F, e0, e1, rscale, geodesics=None):
     return ex <= tol.BRANCH_PATH_RADII * rscale
 
 
-def _harmonic_between(V, F, b, bc, rscale):
+def _harmonic_between(V, F, b, bc, rscale, total_area):
     """Harmonic field with values ``bc`` at vertices ``b`` (cotangent Laplacian, libigl).
 
     Meshes above :data:`tolerances.GC_COARSE_INIT_VERTICES` vertices get the
-    field of a vertex-clustered copy (cells a fraction of the radius wide, graph
+    field of a vertex-clustered copy (cells a fraction of the radius wide, and
+    about ``total_area / GC_COARSE_INIT_CELLS`` in area at most; graph
     Laplacian): it only seeds the fit, and a million-row factorisation would
     cost far more than the whole fit.
     """
     if len(V) <= tol.GC_COARSE_INIT_VERTICES:
         return igl.harmonic(V, F, b, np.ascontiguousarray(bc[:, None]), 1).ravel()
-    area = float(igl.doublearea(V, F).sum()) / 2
-    h = min(np.sqrt(area / tol.GC_COARSE_INIT_CELLS), tol.GC_COARSE_CELL_RADII * rscale)
-    key = np.floor((V - V.min(axis=0)) / h).astype(np.int64)
-    _, cell = unique_rows(key, return_inverse=True)
-    del key
+    h = min(np.sqrt(total_area / tol.GC_COARSE_INIT_CELLS), tol.GC_COARSE_CELL_RADII * rscale)
+    cell = _grid_cells(V, h)
     nc = int(cell.max()) + 1
-    cell = cell.astype(np.int32 if nc < np.iinfo(np.int32).max else np.int64)
     # the cells' graph: every face's corner edges (each interior edge twice; symmetrised below)
     cf = cell[F]
     ce = np.concatenate([cf[:, [i, (i + 1) % 3]][cf[:, i] != cf[:, (i + 1) % 3]] for i in range(3)])
@@ -252,12 +250,37 @@ def _harmonic_between(V, F, b, bc, rscale):
     return x[cell]
 
 
-def _initial_axis(V, F, e0, e1, area, K0, rscale):
+def _grid_cells(V, h):
+    """Id of each vertex's cube of side ``h`` ((n,) int32, or int64 for 2**31 cells), numbered in
+    lexicographic order of the cubes' integer coordinates (as ``np.unique(axis=0)`` numbers them).
+
+    The occupied cubes are marked in a table over the bounding grid when it has at most
+    ``tolerances.GRID_TABLE_PER_VERTEX`` entries per vertex (one pass, no sort), else sorted.
+    """
+    Q = V - V.min(axis=0)
+    Q /= h
+    key = Q.astype(np.int64)  # truncation is the floor: Q >= 0
+    del Q
+    dims = key.max(axis=0) + 1
+    lin = (key[:, 0] * dims[1] + key[:, 1]) * dims[2] + key[:, 2]
+    del key
+    total = int(np.prod(dims.astype(object)))
+    if total <= tol.GRID_TABLE_PER_VERTEX * len(V):
+        occupied = np.zeros(total, dtype=bool)
+        occupied[lin] = True
+        ids = np.cumsum(occupied, dtype=np.int64) - 1
+        cell = ids.take(lin)
+    else:
+        cell = np.unique(lin, return_inverse=True)[1].reshape(-1)
+    return cell.astype(np.int32 if cell.max() < np.iinfo(np.int32).max else np.int64)
+
+
+def _initial_axis(V, F, e0, e1, area, K0, rscale, total_area):
     """Harmonic field between the ends, then area-weighted centroids of its level bands (Eq. 1)."""
     b = np.concatenate([np.asarray(e0.vertices, np.int64), np.asarray(e1.vertices, np.int64)])
     bc = np.concatenate([np.zeros(len(e0.vertices)), np.ones(len(e1.vertices))])
     b, first = np.unique(b, return_index=True)
-    phi = _harmonic_between(V, F, b, bc[first], rscale)
+    phi = _harmonic_between(V, F, b, bc[first], rscale, total_area)
     phi = np.clip(phi, 0.0, 1.0)
     band = np.minimum((phi * K0).astype(np.int64), K0 - 1)
     wsum = np.bincount(band, weights=area, minlength=K0)
@@ -294,7 +317,8 @@ def _check_connected(topo):
 
 
 def _nondegenerate_faces(V, F):
-    """Faces whose area is well defined: above ``DEGENERATE_AREA`` times their longest edge squared.
+    """Faces whose area is well defined (above ``DEGENERATE_AREA`` times their longest edge squared)
+    and the median length of the face corners' edges (as :func:`vesselgp.mesh_scale` measures it).
 
     Zero-area faces (collinear or repeated corners) have no cotangent weights;
     they are left out of the area weights and the harmonic field (they carry no
@@ -305,8 +329,9 @@ def _nondegenerate_faces(V, F):
     L = igl.edge_lengths(V, F)
     e2 = np.maximum(np.maximum(L[:, 0], L[:, 1]), L[:, 2]) ** 2  # a tenth of L.max(axis=1)'s time
     bad = ~(dbl > 2.0 * tol.DEGENERATE_AREA * e2)
+    med = float(np.median(L))
     if not bad.any():
-        return F
+        return F, med
     Fg = F[~bad]
     lost = len(V) - len(np.unique(Fg)) if len(Fg) else len(V)
     if lost:
@@ -316,12 +341,12 @@ def _nondegenerate_faces(V, F):
         )
     log.info("fit ignores %d zero-area faces (vesselgp.clean_mesh removes exactly degenerate ones)",
              int(bad.sum()))
-    return Fg
+    return Fg, med
 
 
-def _log_scale(V, F, e0, e1):
+def _log_scale(V, F, e0, e1, median_edge):
     """Log the mesh's scale; warn when its units look like metres or centimetres (or micrometres)."""
-    sc = mesh_scale(V, F, ends=(e0, e1))
+    sc = mesh_scale(V, F, ends=(e0, e1), median_edge=median_edge)
     r0, r1 = sc.radius_range
     report = (f"median edge {sc.median_edge:.3g}, end radii {r0:.3g} to {r1:.3g}, "
               f"bounding-box diagonal {sc.bbox_diagonal:.3g}")
@@ -425,11 +450,11 @@ def fit_generalized_cylinder(
     mu = tol.GC_MU if mu is None else float(mu)
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
     _check_options(n_nodes, lam, mu, max_iter)
-    topo, Fg = checked_mesh(V, F)
+    topo, Fg, median_edge = checked_mesh(V, F)
     e0, e1, end_ids, n_ends = _resolve_ends(V, F, ends, topo, mesh_ends)
     if initial_normal is not None:
         initial_normal = as_vector(initial_normal, "initial_normal")
-    _log_scale(V, F, e0, e1)
+    _log_scale(V, F, e0, e1, median_edge)
     rscale = 0.5 * (float(e0.radius) + float(e1.radius))
     if not np.isfinite(rscale) or rscale <= 0:
         raise NotTubularError("mesh is not tubular: the ends have no positive radius")
@@ -438,7 +463,8 @@ def fit_generalized_cylinder(
     chord = float(np.linalg.norm(np.asarray(e1.center) - np.asarray(e0.center)))
     _check_aspect(chord, rscale)
     wall_area, area, end_region = _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics)
-    nodes, s_prev, L0 = _initial_nodes(V, Fg, e0, e1, np.where(end_region, 0.0, area), chord, rscale, n_nodes)
+    nodes, s_prev, L0 = _initial_nodes(V, Fg, e0, e1, np.where(end_region, 0.0, area), chord, rscale, n_nodes,
+                                       float(wall_area.sum()))
     sub = thinned(len(V), tol.GC_MAX_FIT_VERTICES)
     it = fixed_point(nodes, s_prev[sub], V[sub], area[sub], end_region[sub], rscale, L0,
                      lam=lam, mu=mu, max_iter=max_iter, initial_normal=initial_normal)
@@ -613,6 +639,17 @@ def _check_options(n_nodes, lam, mu, max_iter):
         raise OptionError(f"max_iter must be at least 1, got {max_iter}")
 
 
+class CheckedMesh(NamedTuple):
+    """What :func:`checked_mesh` found: the topology, the faces with an area, the median edge."""
+
+    #: One edge table for the checks, the ends and the axis check.
+    topology: MeshTopology
+    #: (m', 3) int64: ``F`` without its zero-area faces.
+    faces: np.ndarray
+    #: Median length of the face corners' edges (:func:`vesselgp.mesh_scale`'s measure).
+    median_edge: float
+
+
 def checked_mesh(V, F):
     """The checks every fit makes of its mesh; its topology and the faces with a well-defined area.
 
@@ -623,10 +660,9 @@ def checked_mesh(V, F):
 
     Returns
     -------
-    topology : MeshTopology
-        One edge table for the checks, the ends and the axis check.
-    Fg : (m', 3) int64
-        ``F`` without its zero-area faces.
+    CheckedMesh
+        ``(topology, faces, median_edge)``: the :class:`MeshTopology`, ``F``
+        without its zero-area faces, and the median edge length.
 
     Raises
     ------
@@ -637,7 +673,7 @@ def checked_mesh(V, F):
     _check_used(V, F)
     topo = mesh_topology(F, len(V))
     _check_connected(topo)
-    return topo, _nondegenerate_faces(V, F)
+    return CheckedMesh(topo, *_nondegenerate_faces(V, F))
 
 
 def _check_used(V, F):
@@ -666,10 +702,13 @@ def _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics=None):
     return wall_area, area, end_region
 
 
-def _initial_nodes(V, Fg, e0, e1, area, chord, rscale, n_nodes):
-    """Harmonic initialisation: K nodes at equal arc length, the vertices' first s and the axis length."""
+def _initial_nodes(V, Fg, e0, e1, area, chord, rscale, n_nodes, total_area):
+    """Harmonic initialisation: K nodes at equal arc length, the vertices' first s and the axis length.
+
+    ``area`` weighs the band centroids; ``total_area`` (the surface's) sizes the coarse cells
+    of :func:`_harmonic_between`."""
     K0 = int(np.clip(chord / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
-    pts, s_prev = _initial_axis(V, Fg, e0, e1, area, K0, rscale)
+    pts, s_prev = _initial_axis(V, Fg, e0, e1, area, K0, rscale, total_area)
     L0 = chord_length(pts)[-1]
     K = int(n_nodes or np.clip(L0 / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
     nodes = resample_arclength(pts, K)

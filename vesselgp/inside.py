@@ -25,7 +25,6 @@ the fit is not the vessel's centre line, whether or not it stays inside.
 """
 from __future__ import annotations
 
-import igl
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -42,8 +41,7 @@ def _closed_samples(V, F, area, loops):
     """Oriented point samples (P, N, A) of the surface with each boundary loop closed by a fan."""
     sub = thinned(len(V), tol.INSIDE_SAMPLES)
     step = sub.step
-    N = igl.per_vertex_normals(V, F)
-    P, Nn, A = [V[sub]], [N[sub]], [area[sub] * step]
+    P, Nn, A = [V[sub]], [_vertex_normals(V, F, sub)], [area[sub] * step]
     for lp in loops:
         if len(lp) < 3:
             continue
@@ -67,6 +65,30 @@ def _closed_samples(V, F, area, loops):
     P, first, inv = np.unique(P, axis=0, return_index=True, return_inverse=True)
     A = np.bincount(inv.ravel(), weights=A, minlength=len(P))
     return np.ascontiguousarray(P), np.ascontiguousarray(Nn[first]), np.ascontiguousarray(A)
+
+
+def _vertex_normals(V, F, sub):
+    """libigl's default per-vertex normals (``igl.per_vertex_normals``: the unit sum of the
+    incident faces' unit normals weighted by their areas) at the vertices ``range(len(V))[sub]``.
+
+    Only the face corners at a vertex of ``sub`` are visited: a few percent of a large mesh,
+    whose full normals would cost more than the rest of the axis check. Each face adds its
+    cross product (its unit normal times twice its area; a zero-area face adds nothing); a
+    vertex used only by zero-area faces gets NaN, as in libigl.
+    """
+    n = len(V)
+    pos = np.full(n, -1, dtype=np.int32 if n < np.iinfo(np.int32).max else np.int64)
+    k = len(range(n)[sub])
+    pos[sub] = np.arange(k, dtype=pos.dtype)
+    at = pos.take(F.reshape(-1))
+    corners = np.flatnonzero(at >= 0)  # face corners at a sampled vertex
+    Ff = F[corners // 3]
+    a = V[Ff[:, 0]]
+    cr = np.cross(V[Ff[:, 1]] - a, V[Ff[:, 2]] - a)
+    tgt = at[corners]
+    N = np.stack([np.bincount(tgt, weights=cr[:, d], minlength=k) for d in range(3)], axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return N / np.linalg.norm(N, axis=1, keepdims=True)
 
 
 def _point_cloud_winding(P, N, A, Q):

@@ -95,6 +95,9 @@ GC_COARSE_INIT_VERTICES = 15000
 GC_COARSE_INIT_CELLS = 5000
 #: Cells of that copy are at most this many (end) radii wide, so they never bridge the lumen.
 GC_COARSE_CELL_RADII = 0.3
+#: A grid of cells is numbered through a table over its bounding box when the box has at most
+#: this many cells per vertex (one pass); a sparser grid (a long thin mesh) is sorted instead.
+GRID_TABLE_PER_VERTEX = 8
 #: The fit iterates on at most about this many vertices (evenly thinned); the final
 #: parameterisation uses every vertex.
 GC_MAX_FIT_VERTICES = 60000

@@ -369,7 +369,7 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     lam = tol.GC_LAMBDA if lam is None else float(lam)
     mu = tol.GC_MU if mu is None else float(mu)
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
-    topo, Fg = checked_mesh(V, F)
+    topo, Fg, _ = checked_mesh(V, F)
     ends = _tree_ends(V, F, topo, ends)
     if len(ends) < 2:
         raise EndsError(f"a vessel tree needs at least two ends, the mesh has {len(ends)} "

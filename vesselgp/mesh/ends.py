@@ -16,7 +16,6 @@ from functools import cmp_to_key
 
 import igl
 import numpy as np
-import scipy.sparse as sp
 
 from .. import tolerances as tol
 from .._arrays import unique_rows
@@ -166,7 +165,7 @@ def vessel_ends(V, F, *, topology=None):
     check_staircase(V, F, N, A, h)
     _check_surface(V, F, topo)
     scale = bbox_diagonal(V if topo.referenced.all() else V[topo.referenced])
-    graph = _Lazy(lambda: _edge_graph(topo, w))
+    graph = _Lazy(lambda: topo.edge_matrix(w))
     body = _Nearby(V)
     ends = _open_ends(V, topo, scale, body)
     for fids, loop, center, n in find_caps(V, F, topo, N, A, graph):
@@ -196,13 +195,6 @@ def _face_normals(V, F):
     ``doublearea``: the same cross products as numpy, a quarter of its time.
     """
     return igl.per_face_normals(V, F, np.zeros(3)), igl.doublearea(V, F)
-
-
-def _edge_graph(topo, w):
-    """(n, n) csr_array: the symmetric edge-length graph (as :meth:`MeshTopology.edge_graph`)."""
-    E, n = topo.edges, topo.n_vertices
-    G = sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
-    return (G + G.T).tocsr()
 
 
 class _Nearby:

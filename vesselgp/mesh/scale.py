@@ -44,7 +44,7 @@ class MeshScale:
     warning: str | None
 
 
-def mesh_scale(V, F, ends=None):
+def mesh_scale(V, F, ends=None, *, median_edge=None):
     """Edge length, size and a guess of the length unit of a vessel mesh.
 
     Vessels in millimetres have bounding-box diagonals of about 10-500. A
@@ -62,6 +62,9 @@ def mesh_scale(V, F, ends=None):
         Triangles.
     ends : sequence of VesselEnd, optional
         Ends from :func:`vessel_ends`; their radii give ``radius_range``.
+    median_edge : float, optional
+        The median length of the face corners' edges, when the caller has it
+        (:func:`vesselgp.fit.checked_mesh` does); computed here otherwise.
 
     Returns
     -------
@@ -75,7 +78,7 @@ def mesh_scale(V, F, ends=None):
     ('m', True)
     """
     V, F = as_mesh(V, F)
-    med = _median_edge(V, F)
+    med = _median_edge(V, F) if median_edge is None else float(median_edge)
     diag = float(np.linalg.norm(V.max(0) - V.min(0)))
     rr = None
     if ends:

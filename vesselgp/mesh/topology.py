@@ -18,7 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from ..errors import InvalidMeshError
+from ..errors import InvalidMeshError, MismatchError
 
 __all__ = ["MeshTopology", "mesh_topology"]
 
@@ -350,9 +350,41 @@ class MeshTopology:
 
     # ------------------------------------------------------------------ adjacency and components
     @cached_property
+    def _edge_pattern(self):
+        """(n, n) csr_array of edge ids: ``e`` at ``(i, j)`` and ``(j, i)`` for edge ``e = (i, j)``.
+
+        Built once; every symmetric matrix over the edges shares its pattern
+        (:meth:`edge_matrix`). Rows hold their columns in ascending order: for each
+        row, the entries below the diagonal (the transposed edges, which the
+        lexicographic edge order lists by ascending smaller vertex) come before
+        those above, and the coordinate-to-CSR conversion is a stable counting
+        sort. A self-loop edge ``(a, a)`` appears once, on the diagonal.
+        """
+        E, n = self.edges, self.n_vertices
+        ids = np.arange(self.n_edges, dtype=self.index_dtype)
+        low = E[:, 0] != E[:, 1]
+        rows = np.concatenate([E[low, 1], E[:, 0]])
+        cols = np.concatenate([E[low, 0], E[:, 1]])
+        return sp.coo_array((np.concatenate([ids[low], ids]), (rows, cols)), shape=(n, n)).tocsr()
+
+    def edge_matrix(self, w):
+        """(n, n) scipy.sparse.csr_array: ``w[e]`` at ``(i, j)`` and ``(j, i)`` of each edge ``e = (i, j)``.
+
+        ``w`` is (e,) (one value per row of :attr:`edges`); the sparsity pattern
+        is computed once per topology and shared. Self-loop edges ``(a, a)``
+        (faces with a repeated vertex) put ``w`` once on the diagonal.
+        """
+        P = self._edge_pattern
+        w = np.asarray(w)
+        if w.shape != (self.n_edges,):
+            raise MismatchError(f"edge_matrix: w must have one value per edge, shape ({self.n_edges},); "
+                                f"got {w.shape} (values for another mesh?)")
+        return sp.csr_array((w.take(P.data), P.indices, P.indptr), shape=P.shape)
+
+    @cached_property
     def adjacency(self):
         """(n, n) scipy.sparse.csr_array of int8: 1 where two vertices share an edge (symmetric)."""
-        return self._symmetric(np.ones(self.n_edges, dtype=np.int8))
+        return self.edge_matrix(np.ones(self.n_edges, dtype=np.int8))
 
     def edge_lengths(self, V):
         """(e,) float64: length of each edge for vertex positions ``V`` ((n, 3) float64)."""
@@ -364,12 +396,7 @@ class MeshTopology:
 
     def edge_graph(self, V):
         """(n, n) scipy.sparse.csr_array of float64: edge lengths, symmetric (for Dijkstra)."""
-        return self._symmetric(self.edge_lengths(V))
-
-    def _symmetric(self, w):
-        E, n = self.edges, self.n_vertices
-        G = sp.coo_array((w, (E[:, 0], E[:, 1])), shape=(n, n)).tocsr()
-        return (G + G.T).tocsr()
+        return self.edge_matrix(self.edge_lengths(V))
 
     @cached_property
     def vertex_components(self):
