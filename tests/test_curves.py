@@ -147,3 +147,27 @@ def test_bad_inputs_raise_frame_errors():
         rotation_minimizing_frames(np.vstack([P[:3], P[2:]]))
     with pytest.raises(ValueError):
         rotation_minimizing_frames(np.full((5, 3), np.nan))
+
+
+@pytest.mark.parametrize("m", [2, 3, 4, 5, 8, 60])
+def test_interpolating_cubic_is_scipys_not_a_knot_spline(m):
+    """The axis spline (built through one tridiagonal solve) is the not-a-knot cubic interpolant: scipy's
+    make_interp_spline(k=3) (k = m - 1 below four points), values and first two derivatives, on uneven
+    parameters; and it reproduces a cubic polynomial exactly."""
+    from scipy.interpolate import make_interp_spline
+
+    from vesselgp.curves import interpolating_cubic
+
+    rng = np.random.default_rng(m)
+    u = np.cumsum(np.r_[0.0, 0.2 + rng.random(m - 1)])
+    P = rng.normal(size=(m, 3))
+    x = np.linspace(u[0], u[-1], 301)
+    ref = make_interp_spline(u, P, k=min(3, m - 1))
+    spl = interpolating_cubic(u, P)
+    for nu in range(min(3, m)):
+        np.testing.assert_allclose(spl(x, nu), ref(x, nu), atol=1e-9 * max(1.0, np.abs(ref(x, nu)).max()))
+    if m >= 4:
+        cubic = np.c_[u**3 - 2 * u, 0.5 * u**2, 1.0 - u]
+        xs = np.linspace(u[0], u[-1], 50)
+        np.testing.assert_allclose(interpolating_cubic(u, cubic)(xs), np.c_[xs**3 - 2 * xs, 0.5 * xs**2, 1 - xs],
+                                   atol=1e-10)

@@ -118,3 +118,45 @@ def test_sampled_vertex_normals_are_libigls(step):
     ref = igl.per_vertex_normals(V, F)[sub]
     assert N.shape == ref.shape
     np.testing.assert_allclose(N, ref, atol=1e-12)
+
+
+def test_point_cloud_winding_is_barills_sum_and_libigls_winding_number():
+    """The winding sum in matrix-product form (about the samples' centroid) against Barill et al.'s
+    Eq. 5 summed term by term here, at points near and far from a sphere of radius 2 centred far from
+    the origin (cancellation in |p|^2 + |q|^2 - 2 p.q); and against libigl's exact winding number of
+    the triangle mesh: inside 1, outside 0, to the point cloud's discretisation."""
+    import igl
+
+    from vesselgp.inside import _point_cloud_winding
+    from vesselgp.mesh._geometry import voronoi_areas
+
+    V, F = _icosphere(3)
+    V = 2.0 * V + [300.0, -120.0, 45.0]
+    N = igl.per_vertex_normals(V, F)
+    A = voronoi_areas(V, F)
+    rng = np.random.default_rng(1)
+    Q = [300.0, -120.0, 45.0] + rng.normal(size=(40, 3)) * [1.0, 2.0, 3.0]
+    D = V[None] - Q[:, None]
+    r = np.linalg.norm(D, axis=2)
+    truth = (np.einsum("qij,ij->qi", D, N) * A / r**3).sum(axis=1) / (4 * np.pi)
+    w = _point_cloud_winding(V, N, A, Q)
+    np.testing.assert_allclose(w, truth, rtol=0, atol=1e-9)
+    exact = igl.winding_number(V, F, Q)
+    far = np.abs(np.linalg.norm(Q - [300.0, -120.0, 45.0], axis=1) - 2.0) > 0.3
+    assert far.sum() >= 20
+    np.testing.assert_allclose(w[far], exact[far], atol=0.05)
+
+
+def _icosphere(k):
+    """Unit icosphere subdivided ``k`` times (loop subdivision, projected to the sphere)."""
+    import igl
+
+    t = (1 + 5 ** 0.5) / 2
+    V = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t],
+                  [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], float)
+    F = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+                  [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9],
+                  [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]], np.int64)
+    for _ in range(k):
+        V, F = igl.upsample(V, F)
+    return V / np.linalg.norm(V, axis=1, keepdims=True), F

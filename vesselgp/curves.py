@@ -16,7 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import make_interp_spline, make_smoothing_spline
+from scipy.interpolate import PPoly, make_interp_spline, make_smoothing_spline
+from scipy.linalg.lapack import dgtsv
 
 from . import tolerances as tol
 from ._validate import as_points, as_vector
@@ -59,9 +60,10 @@ def chord_length(P):
 def resample_arclength(P, k, *, with_tangents=False, oversample=16):
     """``k`` points at equal arc length along the cubic interpolating spline of ``P``.
 
-    The spline runs over chord length (consecutive repeated points are
-    dropped); its arc length is measured on a grid ``oversample`` times finer
-    than the output.
+    The spline (:func:`interpolating_cubic`) runs over chord length
+    (consecutive repeated points are dropped); its arc length is measured on
+    chords about ``oversample`` times finer than the output, the same number
+    in each of its segments (at least one).
 
     Parameters
     ----------
@@ -92,22 +94,139 @@ def resample_arclength(P, k, *, with_tangents=False, oversample=16):
     [0.0, 1.0, 2.0, 3.0]
     """
     P = as_points(P, "P", min_rows=1)
-    u = chord_length(P)
+    u = _chords(P)
     keep = np.concatenate([[True], np.diff(u) > tol.REPEATED_POINT * u[-1]])
-    P, u = P[keep], u[keep]
+    if not keep.all():
+        P, u = P[keep], u[keep]
     if len(P) < 2:
         raise NotTubularError(
             "mesh is not tubular: its axis collapsed to a point (all vertices coincide); "
             "check the (deformed) vertex positions"
         )
-    spl = make_interp_spline(u, P, k=min(3, len(P) - 1))
-    uf = np.linspace(0.0, u[-1], int(oversample) * int(k))
-    arc = chord_length(spl(uf))
+    spl = interpolating_cubic(u, P)
+    uf, X = _segment_grid(spl, max(1, -(-int(oversample) * int(k) // (len(u) - 1))))
+    arc = _chords_by_component(X)
     ud = np.interp(np.linspace(0.0, arc[-1], int(k)), arc, uf)
     Q = spl(ud)
     if not with_tangents:
         return Q
-    return Q, unit_rows(spl.derivative(1)(ud)), float(arc[-1])
+    return Q, unit_rows(spl(ud, 1)), float(arc[-1])
+
+
+def _chords(P):
+    """:func:`chord_length` of an already validated (k, 3) float64 array."""
+    d = np.diff(P, axis=0)
+    u = np.empty(len(P))
+    u[0] = 0.0
+    np.cumsum(np.sqrt(np.einsum("ij,ij->i", d, d)), out=u[1:])
+    return u
+
+
+def _segment_grid(spl, q):
+    """Parameters and points of ``q`` equal steps in each segment of a cubic ``PPoly``, and its end.
+
+    Horner's rule on the segments' local polynomials, one component at a time on
+    (n - 1, q) blocks (numpy is several times slower on rows of three). Returns
+    ``((n - 1) q + 1,)`` parameters and the points component-major, ``(d, (n - 1) q + 1)``.
+    """
+    c, x = spl.c, spl.x
+    h = np.diff(x)[:, None] * (np.arange(q) / q)  # (n - 1, q) offsets into each segment
+    d = c.shape[2]
+    X = np.empty((d, (len(x) - 1) * q + 1))
+    dx = x[-1] - x[-2]
+    for j in range(d):
+        Xj = X[j, :-1].reshape(len(x) - 1, q)
+        np.multiply(h, c[0, :, j, None], out=Xj)
+        Xj += c[1, :, j, None]
+        Xj *= h
+        Xj += c[2, :, j, None]
+        Xj *= h
+        Xj += c[3, :, j, None]
+        X[j, -1] = ((c[0, -1, j] * dx + c[1, -1, j]) * dx + c[2, -1, j]) * dx + c[3, -1, j]
+    return np.concatenate([(x[:-1, None] + h).reshape(-1), x[-1:]]), X
+
+
+def _chords_by_component(X):
+    """:func:`chord_length` of points stored component-major, ``X`` (d, k): (k,) float64."""
+    D = np.diff(X, axis=1)
+    l2 = D[0] * D[0]
+    for j in range(1, len(D)):
+        l2 += D[j] * D[j]
+    u = np.empty(X.shape[1])
+    u[0] = 0.0
+    np.cumsum(np.sqrt(l2), out=u[1:])
+    return u
+
+
+def interpolating_cubic(u, P):
+    """The not-a-knot cubic spline through ``P`` at increasing parameters ``u``, as a scipy ``PPoly``.
+
+    The same curve as ``scipy.interpolate.make_interp_spline(u, P, k=3)`` or
+    ``CubicSpline(u, P)`` (the interpolant is unique), built with less overhead:
+    the slopes at the nodes solve one tridiagonal system (LAPACK ``dgtsv``),
+    whose first and last rows are the not-a-knot conditions (the third
+    derivative continuous across the second and the last-but-one node), and
+    each segment is the cubic Hermite polynomial of its end values and slopes.
+    Two points give the line, three the parabola (``make_interp_spline`` with
+    ``k = 1, 2``).
+
+    Parameters
+    ----------
+    u : (m,) float64
+        Strictly increasing parameters.
+    P : (m, d) float64
+        Points.
+
+    Returns
+    -------
+    scipy.interpolate.PPoly
+        Cubic pieces ``c`` (4, m - 1, d) on the breakpoints ``u``; callable as
+        ``spl(x)`` and ``spl(x, nu)`` for the ``nu``-th derivative.
+
+    Examples
+    --------
+    A cubic is reproduced exactly:
+
+    >>> u = np.array([0.0, 0.5, 1.5, 2.0, 3.5])
+    >>> spl = interpolating_cubic(u, (u**3 - u)[:, None])
+    >>> float(np.round(spl(np.array([2.5]))[0, 0], 12)), float(np.round(spl(np.array([2.5]), 1)[0, 0], 12))
+    (13.125, 17.75)
+    """
+    n = len(u)
+    dx = np.diff(u)
+    slope = np.diff(P, axis=0)
+    slope /= dx[:, None]
+    c = np.zeros((4, n - 1, P.shape[1]))
+    c[3] = P[:-1]
+    if n == 2:  # the line
+        c[2] = slope
+        return PPoly.construct_fast(c, u)
+    if n == 3:  # the parabola P0 + s0 (x - u0) + a (x - u0)(x - u1), in each segment's local x
+        a = (slope[1] - slope[0]) / (u[2] - u[0])
+        c[1] = a
+        c[2, 0], c[2, 1] = slope[0] - a * dx[0], slope[0] + a * dx[0]
+        return PPoly.construct_fast(c, u)
+    lower, diag, upper = np.empty(n - 1), np.empty(n), np.empty(n - 1)
+    b = np.empty((n, P.shape[1]))
+    diag[1:-1] = 2.0 * (dx[:-1] + dx[1:])
+    upper[1:] = dx[:-1]
+    lower[:-1] = dx[1:]
+    b[1:-1] = 3.0 * (dx[1:, None] * slope[:-1] + dx[:-1, None] * slope[1:])
+    e = u[2] - u[0]
+    diag[0], upper[0] = dx[1], e
+    b[0] = ((dx[0] + 2.0 * e) * dx[1] * slope[0] + dx[0] ** 2 * slope[1]) / e
+    e = u[-1] - u[-3]
+    diag[-1], lower[-1] = dx[-2], e
+    b[-1] = (dx[-1] ** 2 * slope[-2] + (2.0 * e + dx[-1]) * dx[-2] * slope[-1]) / e
+    *_, m, info = dgtsv(lower, diag, upper, b, overwrite_dl=1, overwrite_d=1, overwrite_du=1, overwrite_b=1)
+    if info != 0:
+        raise FrameError(f"interpolating_cubic: the slope system is singular (LAPACK info {info}); "
+                         "are the parameters strictly increasing?")
+    t = (m[:-1] + m[1:] - 2.0 * slope) / dx[:, None]
+    c[0] = t / dx[:, None]
+    c[1] = (slope - m[:-1]) / dx[:, None] - t
+    c[2] = m[:-1]
+    return PPoly.construct_fast(c, u)
 
 
 def _spline(P):
