@@ -296,6 +296,48 @@ MUTATIONS = {
         "bary = [c[0] / (ln[1] * ln[2]), c[1] / (ln[2] * ln[0]), c[2] / (ln[0] * ln[1])]",
         ["tests/test_mesh.py"],
     ),
+    "cubic_not_a_knot_start_row": (
+        "vesselgp/curves.py",
+        "    b[0] = ((dx[0] + 2.0 * e) * dx[1] * slope[0] + dx[0] ** 2 * slope[1]) / e",
+        "    b[0] = ((dx[0] + e) * dx[1] * slope[0] + dx[0] ** 2 * slope[1]) / e",
+        ["tests/test_curves.py"],
+    ),
+    "cubic_hermite_quadratic_term": (
+        "vesselgp/curves.py",
+        "    c[1] = (slope - m[:-1]) / dx[:, None] - t",
+        "    c[1] = (slope - m[:-1]) / dx[:, None] - 0.5 * t",
+        ["tests/test_curves.py"],
+    ),
+    "arclength_grid_horner_order": (
+        "vesselgp/curves.py",
+        "        np.multiply(h, c[0, :, j, None], out=Xj)\n        Xj += c[1, :, j, None]",
+        "        np.multiply(h, c[1, :, j, None], out=Xj)\n        Xj += c[0, :, j, None]",
+        ["tests/test_curves.py", "tests/test_fit.py"],
+    ),
+    "winding_distance_expansion": (
+        "vesselgp/inside.py",
+        "        r3 *= -2.0",
+        "        r3 *= -1.0",
+        ["tests/test_inside.py"],
+    ),
+    "sampled_normals_unweighted": (
+        "vesselgp/inside.py",
+        "    tgt = at[corners]",
+        "    cr /= np.linalg.norm(cr, axis=1, keepdims=True)\n    tgt = at[corners]",
+        ["tests/test_inside.py"],
+    ),
+    "grid_cells_row_major_stride": (
+        "vesselgp/fit.py",
+        "    lin = (key[:, 0] * dims[1] + key[:, 1]) * dims[2] + key[:, 2]",
+        "    lin = (key[:, 0] * dims[2] + key[:, 1]) * dims[1] + key[:, 2]",
+        ["tests/test_fit.py"],
+    ),
+    "edge_pattern_transpose_dropped": (
+        "vesselgp/mesh/topology.py",
+        "        rows = np.concatenate([E[low, 1], E[:, 0]])",
+        "        rows = np.concatenate([E[low, 0], E[:, 0]])",
+        ["tests/test_topology.py"],
+    ),
 }
 
 

@@ -101,10 +101,11 @@ def test_bend_check_finds_a_local_kink_and_passes_a_straight_axis():
     check_axis_bend(s, L, T, np.full(n, 0.5), ends_margin=12.5)  # the corner lies within 12.5 of the end
 
 
-@pytest.mark.parametrize("step", [1, 3, 7])
+@pytest.mark.parametrize("step", [5, 7, 12])
 def test_sampled_vertex_normals_are_libigls(step):
     """The axis check's surface samples carry libigl's default (area-weighted) vertex normals, computed
-    only at the sampled vertices. Truth: igl.per_vertex_normals of the whole mesh, on an irregular
+    only at the sampled vertices (strides above tolerances.INSIDE_FULL_NORMALS_STEP, where libigl's
+    whole-mesh normals are not taken). Truth: igl.per_vertex_normals of the whole mesh, on an irregular
     remeshed tube with one face collapsed to zero area (a degenerate face adds nothing)."""
     import igl
 

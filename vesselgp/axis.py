@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg import solveh_banded
+from scipy.linalg.lapack import dpbsv as _pbsv
 from scipy.spatial import cKDTree
 
 from . import tolerances as tol
@@ -37,11 +37,18 @@ def _segment_table(dp, dfr, kvec=None):
     on whole rows (numpy loops over an (n, 3) array three elements at a time
     when its rows are strided: about 3x slower at 100k rows).
     """
-    cols = [dp[:-1], np.diff(dp, axis=0), dfr[:-1, 0], np.diff(dfr[:, 0], axis=0)]
-    if kvec is not None:
-        cols.append(0.5 * (kvec[:-1] + kvec[1:]))
-    cols += [dfr[:-1, 1], np.diff(dfr[:, 1], axis=0)]
-    return np.ascontiguousarray(np.hstack(cols).T)
+    blocks = [dp, dfr[:, 0]] + ([] if kvec is None else [None]) + [dfr[:, 1]]
+    table = np.empty((3 * (2 * len(blocks) - (kvec is not None)), len(dp) - 1))
+    r = 0
+    for blk in blocks:
+        if blk is None:  # the curvature vector: its mean over the segment, no difference row
+            table[r:r + 3] = 0.5 * (kvec[:-1] + kvec[1:]).T
+            r += 3
+            continue
+        table[r:r + 3] = blk[:-1].T
+        np.subtract(blk[1:].T, blk[:-1].T, out=table[r + 3:r + 6])
+        r += 6
+    return table
 
 
 def _dot3(a, b):
@@ -156,7 +163,7 @@ class Axis:
             self.frames = np.stack([T, U, V], axis=1)
         T = self.frames[:, 0]
         # curvature vector dT/ds (per mesh unit) at the dense samples
-        self.kvec = np.gradient(T, self.s * self.length, axis=0)
+        self.kvec = _uniform_gradient(T, self.length / (M - 1))
         self.table = _segment_table(self.points, self.frames, self.kvec)
         self.kvec_t = np.ascontiguousarray(self.kvec.T)
         self._tree = None
@@ -242,6 +249,17 @@ class Axis:
         return s
 
 
+def _uniform_gradient(X, h):
+    """``np.gradient(X, h, axis=0)`` of rows at uniform spacing ``h``: central differences inside,
+    one-sided at the ends (first order, numpy's default), (M, c) for (M, c) ``X``."""
+    G = np.empty_like(X)
+    np.subtract(X[2:], X[:-2], out=G[1:-1])
+    G[1:-1] *= 0.5 / h
+    G[0] = (X[1] - X[0]) / h
+    G[-1] = (X[-1] - X[-2]) / h
+    return G
+
+
 def _row_chunks(n):
     """Slices of at most ``tolerances.AXIS_ROW_CHUNK`` consecutive rows covering ``range(n)``."""
     step = tol.AXIS_ROW_CHUNK
@@ -257,7 +275,10 @@ def _carried_frames(carry, T):
     if not np.all(n > np.cos(tol.FRAME_CARRY_MAX_TURN)):
         return None
     U /= n[:, None]
-    return np.stack([T, U, np.cross(T, U)], axis=1)
+    fr = np.empty((len(T), 3, 3))
+    fr[:, 0], fr[:, 1] = T, U
+    fr[:, 2] = np.cross(T, U)
+    return fr
 
 
 def _default_normal(points, t0):
@@ -367,7 +388,9 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
     rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
     if pin_ends:
         pinned = np.array([0, 1, 3 * (K - 1), 3 * (K - 1) + 1])
-        keep = ~(np.isin(rows, pinned) | np.isin(cols, pinned))
+        is_pinned = np.zeros(n3, dtype=bool)
+        is_pinned[pinned] = True
+        keep = ~(is_pinned[rows] | is_pinned[cols])
         rows, cols, vals = (np.concatenate([v[keep], e]) for v, e in zip((rows, cols, vals), (pinned, pinned, np.ones(4))))
         rhs[pinned] = 0.0
     bw = int((rows - cols).max())
@@ -387,12 +410,14 @@ def checked_solution(x):
 
 
 def solve_banded_spd(ab, rhs):
-    """Banded Cholesky solve (lower form); failure means the surface does not surround an axis."""
-    try:
-        x = solveh_banded(ab, rhs, lower=True)
-    except (np.linalg.LinAlgError, ValueError):
-        x = None
-    return checked_solution(x)
+    """Banded Cholesky solve (lower form, LAPACK ``pbsv``, as ``scipy.linalg.solveh_banded``
+    without its input checks); failure means the surface does not surround an axis.
+
+    A matrix that is not positive definite (``info > 0``), or a non-finite solution, raises
+    :class:`NotTubularError` through :func:`checked_solution`.
+    """
+    _, x, info = _pbsv(ab, rhs, lower=1)
+    return checked_solution(x if info == 0 else None)
 
 
 def local_coords(axis, P, s):

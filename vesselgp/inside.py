@@ -25,6 +25,7 @@ the fit is not the vessel's centre line, whether or not it stays inside.
 """
 from __future__ import annotations
 
+import igl
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -72,10 +73,14 @@ def _vertex_normals(V, F, sub):
     incident faces' unit normals weighted by their areas) at the vertices ``range(len(V))[sub]``.
 
     Only the face corners at a vertex of ``sub`` are visited: a few percent of a large mesh,
-    whose full normals would cost more than the rest of the axis check. Each face adds its
+    whose full normals would cost more than the rest of the axis check (when ``sub`` takes
+    every ``tolerances.INSIDE_FULL_NORMALS_STEP``-th vertex or more, libigl's whole-mesh
+    normals are cheaper and are taken). Each face adds its
     cross product (its unit normal times twice its area; a zero-area face adds nothing); a
     vertex used only by zero-area faces gets NaN, as in libigl.
     """
+    if sub.step <= tol.INSIDE_FULL_NORMALS_STEP:  # most vertices are samples: libigl's own is cheaper
+        return igl.per_vertex_normals(V, F)[sub]
     n = len(V)
     pos = np.full(n, -1, dtype=np.int32 if n < np.iinfo(np.int32).max else np.int64)
     k = len(range(n)[sub])
@@ -100,15 +105,15 @@ def _point_cloud_winding(P, N, A, Q):
     The products are matrix products about the samples' centroid:
     ``(p - q) . n = p . n - q . n`` and ``|p - q|^2 = |p|^2 + |q|^2 - 2 p . q``
     (the query points are at least a wall clearance from every sample, so the
-    expansion loses nothing that matters). Queries are processed in blocks to
-    bound memory.
+    expansion loses nothing that matters). Queries are processed in blocks of
+    about ``tolerances.WINDING_BLOCK_PAIRS`` pairs (small temporaries: see there).
     """
     c = P.mean(axis=0)
     P, Q = P - c, Q - c
     pp = np.einsum("ij,ij->i", P, P)
     pn = np.einsum("ij,ij->i", P, N)
     w = np.empty(len(Q))
-    block = max(1, tol.PROJECTION_CHUNK // (4 * len(P)))
+    block = max(1, tol.WINDING_BLOCK_PAIRS // len(P))
     for a in range(0, len(Q), block):
         Qb = Q[a:a + block]
         r3 = Qb @ P.T
