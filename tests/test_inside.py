@@ -161,3 +161,19 @@ def _icosphere(k):
     for _ in range(k):
         V, F = igl.upsample(V, F)
     return V / np.linalg.norm(V, axis=1, keepdims=True), F
+
+
+def test_coincident_samples_merge_as_numpy_unique_rows():
+    """Duplicated vertices give coincident winding samples, merged with their areas summed: the same
+    rows, first occurrences and inverse as numpy's unique rows (the truth), on repeated grid points."""
+    from vesselgp.inside import _unique_points
+
+    rng = np.random.default_rng(0)
+    P = rng.integers(0, 4, (500, 3)).astype(float) * 0.5 + [10.0, -3.0, 0.25]
+    P[::7] = P[3]
+    rows, first, inv = _unique_points(P)
+    ref_rows, ref_first, ref_inv = np.unique(P, axis=0, return_index=True, return_inverse=True)
+    np.testing.assert_array_equal(rows, ref_rows)
+    np.testing.assert_array_equal(first, ref_first)
+    np.testing.assert_array_equal(inv, ref_inv.ravel())
+    assert len(rows) < len(P)

@@ -201,3 +201,17 @@ def test_a_carried_frame_is_the_previous_frame_projected_and_falls_back_to_the_r
     assert turn.max() > 1e-3  # the axis really moved
     turned = np.c_[nodes[:, 0], 0.0 * nodes[:, 0], nodes[:, 1]]  # the hairpin stood up: tangents turn by up to 90 degrees
     np.testing.assert_allclose(Axis(turned, carry=ax).frames, Axis(turned).frames, atol=1e-12)
+
+
+def test_node_frames_are_the_frames_interpolated_at_the_nodes():
+    """The circle fit reads the frames at the K nodes straight from the dense samples: the same as
+    interpolating the axis there (s = k / (K - 1)), and orthonormal with T along the spline tangent;
+    the view cannot be written."""
+    nodes = _hairpin()
+    ax = Axis(nodes)
+    fr = ax.node_frames()
+    assert fr.shape == (len(nodes), 3, 3)
+    np.testing.assert_allclose(fr, ax.at(np.linspace(0, 1, len(nodes)))[1], atol=1e-12)
+    np.testing.assert_allclose(np.einsum("kij,klj->kil", fr, fr), np.broadcast_to(np.eye(3), fr.shape), atol=1e-12)
+    with pytest.raises(ValueError):
+        fr[0, 0, 0] = 1.0

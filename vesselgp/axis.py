@@ -167,6 +167,7 @@ class Axis:
         self.table = _segment_table(self.points, self.frames, self.kvec)
         self.kvec_t = np.ascontiguousarray(self.kvec.T)
         self._tree = None
+        self._per_node = spn
 
     def stretch(self, s, d):
         """Jacobian 1 - k(s) . d of the tube map at offset ``d`` from the axis point at ``s``.
@@ -184,6 +185,16 @@ class Axis:
 
     def at(self, s):
         return interp_frames(self.s, self.points, self.frames, s, table=self.table)
+
+    def node_frames(self):
+        """Frames at the nodes, ``s = k / (K - 1)`` ((K, 3, 3), rows T, U, V; a read-only view).
+
+        The nodes are dense samples (every ``samples_per_node``-th), so this is what
+        ``at(np.linspace(0, 1, K))[1]`` interpolates there, without interpolating.
+        """
+        fr = self.frames[::self._per_node]
+        fr.flags.writeable = False
+        return fr
 
     def _nearest_in_window(self, P, s_prev, window):
         """Parameter of the closest dense sample within ``window`` of ``s_prev`` (exhaustive).

@@ -585,8 +585,7 @@ def _iterate(it, Vs, areas, ends_s, initial_normal, window, lam, mu, rscale):
     s = np.clip(s_raw, 0, 1)
     local, jac = local_coords(axis, Vs, s)
     w = _robust_weights(s, local, jac, areas, it.radii, inside, it.rejected)
-    _, fr_nodes = axis.at(np.linspace(0, 1, K))
-    corr = circle_fit_correction(fr_nodes, nodes, s, local, w, lam, rscale)
+    corr = circle_fit_correction(axis.node_frames(), nodes, s, local, w, lam, rscale)
     step = float(np.abs(corr).max())
     nodes = nodes + corr
     radii = _radius_fit(s, np.hypot(local[:, 1], local[:, 2]), w, K, mu)

@@ -62,10 +62,27 @@ def _closed_samples(V, F, area, loops):
     if not ok.any():
         raise NotTubularError("mesh is not tubular: its surface has no area; check the mesh (vesselgp.clean_mesh)")
     P, Nn, A = P[ok], Nn[ok], A[ok]
-    # coincident samples (duplicated vertices) make libigl's octree recurse without end: merge them
-    P, first, inv = np.unique(P, axis=0, return_index=True, return_inverse=True)
-    A = np.bincount(inv.ravel(), weights=A, minlength=len(P))
-    return np.ascontiguousarray(P), np.ascontiguousarray(Nn[first]), np.ascontiguousarray(A)
+    # coincident samples (duplicated vertices) would count twice: merge them, areas summed
+    P, first, inv = _unique_points(P)
+    A = np.bincount(inv, weights=A, minlength=len(P))
+    return P, np.ascontiguousarray(Nn[first]), A
+
+
+def _unique_points(P):
+    """``np.unique(P, axis=0, return_index=True, return_inverse=True)`` of (k, 3) float64 rows,
+    by one ``lexsort`` (numpy's row unique sorts structured rows: several times slower).
+
+    Returns the distinct rows in lexicographic order (k', 3), the index of each one's first
+    occurrence (k',) and each row's distinct-row id (k,).
+    """
+    order = np.lexsort((P[:, 2], P[:, 1], P[:, 0]))  # stable: first occurrences lead their group
+    Ps = P[order]
+    new = np.empty(len(P), dtype=bool)
+    new[:1] = True
+    np.any(Ps[1:] != Ps[:-1], axis=1, out=new[1:])
+    inv = np.empty(len(P), dtype=np.int64)
+    inv[order] = np.cumsum(new) - 1
+    return np.ascontiguousarray(Ps[new]), order[new], inv
 
 
 def _vertex_normals(V, F, sub):
