@@ -160,8 +160,8 @@ MUTATIONS = {
     ),
     "voronoi_areas_chunks_overwrite": (
         "vesselgp/mesh/_geometry.py",
-        "        out[:len(d)] += d",
-        "        out[:len(d)] = d",
+        "            q[:, a:a + len(Fc)] = _corner_voronoi(V, Fc)",
+        "            q[:, :len(Fc)] = _corner_voronoi(V, Fc)",
         ["tests/test_mesh.py"],
     ),
     "projection_chunks_share_the_first_start": (
