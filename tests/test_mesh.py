@@ -404,8 +404,9 @@ def test_voronoi_areas_are_libigls_mass_matrix_in_any_chunks(monkeypatch, chunk)
 
 def test_voronoi_areas_of_known_triangles():
     """Meyer et al.'s mixed areas by hand: an acute equilateral triangle shares its area in thirds;
-    a right triangle's circumcentre is its hypotenuse's midpoint (quarter, quarter, half); an obtuse
-    one gives a quarter of its area to the obtuse corner and an eighth to each other corner."""
+    a right triangle's circumcentre is its hypotenuse's midpoint (half the area at the right angle, a
+    quarter at each other corner); an obtuse one gives half of its area to the obtuse corner and a
+    quarter to each other corner."""
     from vesselgp.mesh._geometry import voronoi_areas
 
     F = np.array([[0, 1, 2]])

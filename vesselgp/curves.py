@@ -53,8 +53,7 @@ def chord_length(P):
     >>> chord_length([[0, 0, 0], [3, 4, 0], [3, 4, 1]])
     array([0., 5., 6.])
     """
-    P = as_points(P, "P", min_rows=1)
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
+    return _chords(as_points(P, "P", min_rows=1))
 
 
 def resample_arclength(P, k, *, with_tangents=False, oversample=16):

@@ -18,7 +18,7 @@ def voronoi_areas(V, F):
     libigl's ``massmatrix_intrinsic`` (``MASSMATRIX_TYPE_VORONOI``, Meyer et al. 2003)
     evaluated in numpy: each corner gets its share of the face cut at the circumcentre
     (barycentric weights ``l_k cos_k``, normalised); in an obtuse face the obtuse corner
-    gets a quarter of its area and the others an eighth. The corner shares are computed
+    gets half of its area and the others a quarter each. The corner shares are computed
     ``tolerances.AREA_FACE_CHUNK`` faces at a time (temporaries bounded, issue #16's
     peak memory) and summed per vertex once. ``tests/test_mesh.py`` checks the result
     against ``igl.massmatrix`` on the whole mesh. As there, a face with a zero-length edge
@@ -49,7 +49,7 @@ def _corner_voronoi(V, F):
     half = 0.5 * dblA / (bary[0] + bary[1] + bary[2])
     part = [b * half for b in bary]
     quads = np.stack([0.5 * (part[1] + part[2]), 0.5 * (part[2] + part[0]), 0.5 * (part[0] + part[1])])
-    for k in range(3):  # an obtuse corner k: a quarter of the face to it, an eighth to the others
+    for k in range(3):  # an obtuse corner k: half the face's area to it, a quarter to each other (of dblA: 1/4, 1/8)
         obtuse = c[k] < 0
         share = np.full((3, 1), 0.125)
         share[k] = 0.25
