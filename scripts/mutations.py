@@ -146,6 +146,24 @@ MUTATIONS = {
         "        extent = float(np.linalg.norm(np.ptp(V, axis=0)))",
         ["tests/test_geodesic.py", "tests/test_tree.py"],
     ),
+    "geodesic_unnormalised_field": (
+        "vesselgp/mesh/geodesic.py",
+        "        scale = np.divide(self._area[:, None], norm, out=np.zeros_like(norm), where=norm > 0)",
+        "        scale = np.divide(self._area[:, None], norm.mean(), out=np.zeros_like(norm), where=norm > 0)",
+        ["tests/test_geodesic.py"],
+    ),
+    "geodesic_gradient_corner_swapped": (
+        "vesselgp/mesh/geodesic.py",
+        "    e = [P[2] - P[1], P[0] - P[2], P[1] - P[0]]\n    N = _cross(e[1], e[2])",
+        "    e = [P[2] - P[1], P[1] - P[0], P[0] - P[2]]\n    N = _cross(e[2], e[1])",
+        ["tests/test_geodesic.py"],
+    ),
+    "geodesic_sources_not_at_zero": (
+        "vesselgp/mesh/geodesic.py",
+        "            D[:, c] -= D[s, c].mean()",
+        "            D[:, c] -= D[:, c].min()",
+        ["tests/test_geodesic.py"],
+    ),
     "fixed_point_projection_not_refined": (
         "vesselgp/tolerances.py",
         "GC_NEWTON_STEPS_WARM = 1",

@@ -49,3 +49,53 @@ def test_a_solver_of_another_mesh_is_refused():
     assert geo.check(V, F) is geo
     with pytest.raises(OptionError, match="precomputed for a mesh"):
         geo.check(V[:-1], F[:-2])
+
+
+def _libigl_distances(V, F, t, sources):
+    """libigl's own heat method (its zero-mean Poisson solve by LU), on the same closed mesh and time."""
+    import igl
+    from vesselgp.mesh.geodesic import _closed
+    from vesselgp.mesh.topology import mesh_topology
+    data = igl.HeatGeodesicsData()
+    igl.heat_geodesics_precompute(*_closed(V, F, mesh_topology(F, len(V)).boundary_loops), t, data)
+    return igl.heat_geodesics_solve(data, np.asarray(sources, np.int64))[: len(V)]
+
+
+def test_distances_equal_libigls_heat_method_from_each_source_set_at_once():
+    """Pinned Cholesky Poisson solve and batched columns against libigl's heat_geodesics (two open ends)."""
+    ves = synthetic_vessel("arc", radius=1.0)
+    V, F = ves.V, ves.F
+    geo = GeodesicDistances(V, F)
+    z = V @ np.array([0.3, -0.2, 0.9])
+    sets = [np.flatnonzero(z < np.quantile(z, 0.01)), [17], np.arange(300, 340)]
+    D = geo.from_each(sets)
+    assert D.shape == (len(V), 3)
+    for c, s in enumerate(sets):
+        ref = _libigl_distances(V, F, geo.t, s)
+        assert np.abs(D[:, c] - ref).max() < 1e-9 * ref.max()
+        assert np.abs(geo(s) - D[:, c]).max() < 1e-12 * ref.max()
+
+
+def test_the_face_gradient_is_libigls():
+    import igl
+    from vesselgp.mesh.geodesic import _gradient
+    V, F = _random_sphere(500, 2.0, seed=3)
+    G, area = _gradient(V, F)
+    ref = igl.grad(V, F)
+    assert abs(G - ref).max() < 1e-12 * abs(ref).max()
+    assert np.abs(area - 0.5 * igl.doublearea(V, F)).max() < 1e-14 * area.max()
+    # a linear function has its own constant gradient in every face (up to the normal part)
+    g = np.array([0.4, -1.0, 2.0])
+    Gf = (G @ (V @ g)).reshape(3, -1).T
+    N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    N /= np.linalg.norm(N, axis=1)[:, None]
+    tangential = g - (N @ g)[:, None] * N
+    assert np.abs(Gf - tangential).max() < 1e-9
+
+
+def test_several_components_are_refused():
+    from vesselgp.errors import InvalidMeshError
+    V, F = _random_sphere(200, 1.0)
+    V2, F2 = np.vstack([V, V + 5.0]), np.vstack([F, F + len(V)])
+    with pytest.raises(InvalidMeshError, match="2 connected components"):
+        GeodesicDistances(V2, F2)

@@ -4,9 +4,9 @@ The first stage of a tree fit (issue #13): from the ends of a branching mesh
 (:func:`vesselgp.vessel_ends`) and a root end, it finds the tree's topology and
 splits the surface into branches, without fitting any axis.
 
-* **Distances.** Heat-method geodesic distances (libigl ``heat_geodesics``,
-  one factorisation, :class:`vesselgp.mesh.geodesic.GeodesicDistances`) from
-  every end's vertices.
+* **Distances.** Heat-method geodesic distances
+  (:class:`vesselgp.mesh.geodesic.GeodesicDistances`, one precomputation)
+  from every end's vertices, solved together.
 * **Topology.** For tips ``a`` and ``b``, the length of the path they share
   from the root is the Gromov product
   ``g(a, b) = (d(root, a) + d(root, b) - d(a, b)) / 2``; on a tree it is the
@@ -148,7 +148,7 @@ def branch_decomposition(V, F, ends, root=None, *, geodesics=None):
                         "fit a single vessel with vesselgp.fit_generalized_cylinder")
     root = root_end(ends, root)
     geo = GeodesicDistances(V, F) if geodesics is None else geodesics.check(V, F)
-    dist = [geo(e.vertices) for e in ends]
+    dist = list(geo.from_each([e.vertices for e in ends]).T)  # one solve for all ends
     tips = [j for j in range(len(ends)) if j != root]
     to_tip = {j: float(np.mean(dist[root][ends[j].vertices])) for j in tips}
     share = {(a, b): 0.5 * (to_tip[a] + to_tip[b] - float(np.mean(dist[a][ends[b].vertices])))

@@ -213,8 +213,7 @@ def _path_mask(V, F, e0, e1, rscale, geodesics=None):
     radius into a side branch have d0 + d1 well above the shortest d0 + d1.
     """
     geo = GeodesicDistances(V, F) if geodesics is None else geodesics.check(V, F)
-    d0, d1 = geo(e0.vertices), geo(e1.vertices)
-    ex = d0 + d1
+    ex = geo.from_each([e0.vertices, e1.vertices]).sum(axis=1)
     ex -= np.min(ex)
     return ex <= tol.BRANCH_PATH_RADII * rscale
 
