@@ -99,3 +99,15 @@ def test_several_components_are_refused():
     V2, F2 = np.vstack([V, V + 5.0]), np.vstack([F, F + len(V)])
     with pytest.raises(InvalidMeshError, match="2 connected components"):
         GeodesicDistances(V2, F2)
+
+
+def test_a_given_topology_gives_the_same_distances_and_a_wrong_one_is_refused():
+    from vesselgp.mesh.topology import mesh_topology
+    ves = synthetic_vessel("arc", radius=1.0)
+    V, F = ves.V, ves.F
+    topo = mesh_topology(F, len(V))
+    a, b = GeodesicDistances(V, F), GeodesicDistances(V, F, topo)
+    assert a.t == b.t
+    assert np.array_equal(a([0, 1, 2]), b([0, 1, 2]))
+    with pytest.raises(OptionError, match="topology given"):
+        GeodesicDistances(V, F[:-1], topo)

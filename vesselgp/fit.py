@@ -206,13 +206,13 @@ def _resolve_ends(V, F, ends, topo, mesh_ends=None):
     return e0, e1, (i0, i1), len(all_ends)
 
 
-def _path_mask(V, F, e0, e1, rscale, geodesics=None):
+def _path_mask(V, F, e0, e1, rscale, geodesics=None, topology=None):
     """Vertices on the path between the two ends (excess geodesic length <= ``BRANCH_PATH_RADII`` radii).
 
     Used when the mesh has other ends (branches): vertices deeper than about a
     radius into a side branch have d0 + d1 well above the shortest d0 + d1.
     """
-    geo = GeodesicDistances(V, F) if geodesics is None else geodesics.check(V, F)
+    geo = GeodesicDistances(V, F, topology) if geodesics is None else geodesics.check(V, F)
     ex = geo.from_each([e0.vertices, e1.vertices]).sum(axis=1)
     ex -= np.min(ex)
     return ex <= tol.BRANCH_PATH_RADII * rscale
@@ -461,7 +461,8 @@ def fit_generalized_cylinder(
     # (the initial axis of such a stub is not reliable).
     chord = float(np.linalg.norm(np.asarray(e1.center) - np.asarray(e0.center)))
     _check_aspect(chord, rscale)
-    wall_area, area, end_region = _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics)
+    wall_area, area, end_region = _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics,
+                                                topo if Fg is F else None)
     nodes, s_prev, L0 = _initial_nodes(V, Fg, e0, e1, np.where(end_region, 0.0, area), chord, rscale, n_nodes,
                                        float(wall_area.sum()))
     sub = thinned(len(V), tol.GC_MAX_FIT_VERTICES)
@@ -683,7 +684,7 @@ def _check_used(V, F):
         )
 
 
-def _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics=None):
+def _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics=None, topology=None):
     """Voronoi areas of the wall, Eq. 1's weights (zero off the path between the ends), the cap vertices.
 
     The areas use the faces with a well-defined area (zero-area faces have
@@ -696,7 +697,7 @@ def _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics=None):
             end_region[np.asarray(e.vertices, np.int64)] = True
     area = wall_area
     if n_ends > 2:
-        area = np.where(_path_mask(V, Fg, e0, e1, rscale, geodesics), wall_area, 0.0)
+        area = np.where(_path_mask(V, Fg, e0, e1, rscale, geodesics, topology), wall_area, 0.0)
     return wall_area, area, end_region
 
 

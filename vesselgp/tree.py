@@ -49,6 +49,7 @@ from .fit import (GeneralizedCylinder, check_cylinder_bend, checked_mesh, cylind
 from .inside import SurfaceWinding, check_axis_inside
 from .mesh import vessel_ends
 from .mesh._geometry import voronoi_areas
+from .mesh.geodesic import GeodesicDistances
 from .rotations import minimal_rotation
 
 log = logging.getLogger(__name__)
@@ -381,6 +382,8 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                           vertex_branch=np.zeros(len(V), np.int64))
+    if geodesics is None:  # the topology is shared when no face was dropped
+        geodesics = GeodesicDistances(V, Fg, topo if Fg is F else None)
     br = branch_decomposition(V, Fg, ends, root, geodesics=geodesics)
     area = voronoi_areas(V, Fg)
     caps = np.zeros(len(V), bool)
@@ -412,7 +415,9 @@ def _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu):
     branches, axes = [], []
     for b, r in enumerate(raw):
         nb = resample_arclength(nodes[b], len(r.nodes))
-        on_old = Axis(r.nodes).at(r.s)[0]  # each vertex's foot on the axis before the junctions
+        # each vertex's foot on the axis before the junctions, to the nearest dense sample of the
+        # last iteration's axis (it moved less than the tolerance since): only a projection's seed
+        on_old = r.it.axis.points[r.it.axis.nearest_sample(r.s)]
         normal = None
         if br.parent[b] >= 0:
             pf = axes[br.parent[b]].frames[-1]

@@ -232,7 +232,10 @@ def scan_landmarks(V, F, ends=None):
     all_ends = vessel_ends(V, F)
     i, j = _main_ends(all_ends, ends, "ends")
     # one heat-geodesic factorisation for the tree and the main fit's path between its ends
-    geo = GeodesicDistances(V, checked_mesh(V, F)[1]) if len(all_ends) > 2 else None
+    geo = None
+    if len(all_ends) > 2:
+        topo, Fg, _ = checked_mesh(V, F)
+        geo = GeodesicDistances(V, Fg, topo if Fg is F else None)
     tree = fit_vessel_tree(V, F, i, ends=all_ends, geodesics=geo)
     k = next(q for q, p in enumerate(tree.paths) if p.ends[1] == j)
     on_main = set(tree.path_branches[k])

@@ -51,6 +51,9 @@ class GeodesicDistances:
     F : (m, 3) int64
         One connected surface; faces with a well-defined area (zero-area faces have no
         cotangent weights).
+    topology : MeshTopology, optional
+        The :class:`vesselgp.mesh.topology.MeshTopology` of these ``F``, when already built;
+        default built here.
 
     Raises
     ------
@@ -69,12 +72,15 @@ class GeodesicDistances:
     True
     """
 
-    def __init__(self, V, F):
+    def __init__(self, V, F, topology=None):
         self.shape = (len(V), len(F))  # the mesh it was built for (see :meth:`check`)
-        h = float(igl.avg_edge_length(V, F))
+        topo = mesh_topology(F, len(V)) if topology is None else topology
+        if (topo.n_faces, topo.n_vertices) != (len(F), len(V)):
+            raise OptionError(f"the topology given is of {topo.n_faces} faces and {topo.n_vertices} vertices, "
+                              f"not of these {len(F)} and {len(V)}; pass the topology of F or none")
+        h = float(topo.edge_lengths(V).mean())  # igl.avg_edge_length: the mean over the unique edges
         extent = 2.0 * float(np.sqrt(((V - V.mean(axis=0)) ** 2).sum(axis=1).max()))
         self.t = max(h * h, extent**2 / (4.0 * tol.GEODESIC_HEAT_DECAY))
-        topo = mesh_topology(F, len(V))
         if topo.vertex_components[0] > 1:
             raise InvalidMeshError(
                 f"mesh has {topo.vertex_components[0]} connected components, so geodesic distances between "
