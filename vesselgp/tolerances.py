@@ -452,6 +452,9 @@ ENDS_TIP_SEPARATION = 1.5
 #: the heat kernel stays above exp(-this), far from underflow (libigl's default time underflows
 #: on fine meshes).
 GEODESIC_HEAT_DECAY = 300.0
+#: Source sets solved together by ``GeodesicDistances.from_each`` (each costs about 48 bytes per
+#: face in temporaries; a tree's ends are a handful).
+GEODESIC_SOLVE_COLUMNS = 8
 
 # --- branch decomposition of trees (vesselgp.branches) -----------------------
 #: A single-path fit on a branching mesh uses the vertices whose geodesic excess

@@ -58,8 +58,11 @@ class GeodesicDistances:
     Raises
     ------
     InvalidMeshError
-        Several connected components (their distances from each other are undefined), or
-        non-manifold or inconsistently oriented faces (boundary loops are then undefined).
+        Several connected components (their distances from each other are undefined; an
+        unreferenced vertex counts as one), or non-manifold or inconsistently oriented faces
+        (boundary loops are then undefined).
+    OptionError
+        A ``topology`` of other faces.
 
     Examples
     --------
@@ -75,16 +78,17 @@ class GeodesicDistances:
     def __init__(self, V, F, topology=None):
         self.shape = (len(V), len(F))  # the mesh it was built for (see :meth:`check`)
         topo = mesh_topology(F, len(V)) if topology is None else topology
-        if (topo.n_faces, topo.n_vertices) != (len(F), len(V)):
-            raise OptionError(f"the topology given is of {topo.n_faces} faces and {topo.n_vertices} vertices, "
-                              f"not of these {len(F)} and {len(V)}; pass the topology of F or none")
+        if topo.n_vertices != len(V) or not np.array_equal(topo.F, F):
+            raise OptionError(f"the topology given is of other faces ({topo.n_faces} faces, {topo.n_vertices} "
+                              f"vertices; these are {len(F)} and {len(V)}); pass the topology of F or none")
+        if topo.vertex_components[0] > 1:
+            raise InvalidMeshError(
+                f"mesh has {topo.vertex_components[0]} connected components (unreferenced vertices count "
+                "as one each), so geodesic distances between them are undefined; run vesselgp.clean_mesh "
+                "(keeps the largest) first")
         h = float(topo.edge_lengths(V).mean())  # igl.avg_edge_length: the mean over the unique edges
         extent = 2.0 * float(np.sqrt(((V - V.mean(axis=0)) ** 2).sum(axis=1).max()))
         self.t = max(h * h, extent**2 / (4.0 * tol.GEODESIC_HEAT_DECAY))
-        if topo.vertex_components[0] > 1:
-            raise InvalidMeshError(
-                f"mesh has {topo.vertex_components[0]} connected components, so geodesic distances between "
-                "them are undefined; run vesselgp.clean_mesh (keeps the largest) first")
         Vc, Fc = _closed(V, F, topo.boundary_loops)
         L = igl.cotmatrix(Vc, Fc)
         none = np.zeros(0, np.int64)
@@ -118,12 +122,43 @@ class GeodesicDistances:
         return self.from_each([sources])[:, 0]
 
     def from_each(self, source_sets):
-        """Distances from each of ``k`` vertex sets, solved together: (n, k) float64.
+        """Distances from each of ``k`` vertex sets, solved together.
 
-        Column ``c`` is the distance of every vertex from set ``c`` (zero mean over the set,
-        as libigl's ``heat_geodesics_solve``).
+        Parameters
+        ----------
+        source_sets : sequence of (s_c,) array_like of int
+            ``k`` non-empty sets of vertex ids.
+
+        Returns
+        -------
+        D : (n, k) float64
+            Column ``c`` is the distance of every vertex from set ``c`` (zero mean over the
+            set, as libigl's ``heat_geodesics_solve``). At most
+            ``tolerances.GEODESIC_SOLVE_COLUMNS`` sets share one solve (bounded temporaries).
+
+        Raises
+        ------
+        OptionError
+            A set that is empty, not a sequence of ids, or names a vertex outside the mesh.
         """
-        sets = [np.asarray(s, np.int64).ravel() for s in source_sets]
+        sets = [self._source_ids(s) for s in source_sets]
+        D = np.empty((self.shape[0], len(sets)))
+        step = tol.GEODESIC_SOLVE_COLUMNS
+        for a in range(0, len(sets), step):
+            D[:, a:a + step] = self._solve(sets[a:a + step])
+        return D
+
+    def _source_ids(self, s):
+        ids = np.asarray(s)
+        if ids.ndim != 1 or not len(ids) or not np.issubdtype(ids.dtype, np.integer):
+            raise OptionError(f"a source set must be a non-empty 1-D sequence of vertex ids, got {s!r:.60}; "
+                              "pass a list of sets to from_each, or one set to the solver itself")
+        if ids.min() < 0 or ids.max() >= self.shape[0]:
+            raise OptionError(f"source ids must lie in [0, {self.shape[0]}), got {int(ids.min())} .. {int(ids.max())}")
+        return ids.astype(np.int64, copy=False)
+
+    def _solve(self, sets):
+        """Steps 1-3 of the module notes for a few validated source sets: (n, k) float64."""
         k, m = len(sets), len(self._area)
         u0 = np.zeros((self._n, k))
         for c, s in enumerate(sets):
@@ -175,12 +210,13 @@ def _cross(a, b):
 
 
 def _closed(V, F, loops):
-    """``V, F`` with every boundary loop closed by a fan about its centroid (one vertex per loop).
+    """``V, F`` with every boundary loop (``loops``, lists of vertex ids) closed by a fan about its centroid.
 
-    On a closed mesh libigl's heat method factorises the heat step once (Neumann); with a
-    boundary it factorises it a second time (Dirichlet) and averages the two solutions. With a
-    fan over each open end the mesh is closed and one factorisation fewer is needed (27k-vertex
-    tree: precompute 0.18 -> 0.14 s). Distances from an end's whole loop, or from sources away
+    One vertex per loop. With a boundary, the heat method (libigl's too) would factorise the
+    heat step a second time, with Dirichlet conditions, and average the two solutions; on the
+    closed mesh the one (Neumann) factorisation is the whole heat step, and the Poisson step
+    needs no boundary condition either (when the fans were introduced, for libigl's
+    precompute on a 27k-vertex tree: 0.18 -> 0.14 s). Distances from an end's whole loop, or from sources away
     from the ends, which are all a tree fit asks for, reach a ring's points along the tube, so
     the fans offer no shortcut; measured against the averaged solution they differ by at most
     0.13 % of the largest distance on the 27k synthetic trees and 1.4 % on the real aorto-iliac
