@@ -295,13 +295,15 @@ def _cylinder(V, area, caps_all, idx, nodes, s_prev, it, normal, ends, lam, mu, 
     """The generalized cylinder of one branch (or path) through ``nodes``, on vertices ``idx``.
 
     ``s_prev`` is each vertex's parameter on this axis (Newton steps refine
-    it), or (q, 3) points near the axis whose nearest axis sample starts a
-    windowed projection.
+    it), or ``(points, index)``: (p, 3) points near the axis and each vertex's
+    row in them, whose nearest axis sample starts a windowed projection (the
+    few points are looked up once, not once per vertex).
     """
     K = len(nodes)
     axis = Axis(nodes, normal)
-    if np.ndim(s_prev) == 2:
-        s_prev = axis.s[cKDTree(axis.points).query(s_prev)[1]]
+    if isinstance(s_prev, tuple):
+        points, row = s_prev
+        s_prev = axis.s[cKDTree(axis.points).query(points)[1]][row]
         window = tol.TREE_PROJECTION_WINDOW * rscale / axis.length + 2.0 / (K - 1)
     else:  # parameters already on this axis (a path from its branches): Newton steps only
         window = None
@@ -417,7 +419,7 @@ def _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu):
         nb = resample_arclength(nodes[b], len(r.nodes))
         # each vertex's foot on the axis before the junctions, to the nearest dense sample of the
         # last iteration's axis (it moved less than the tolerance since): only a projection's seed
-        on_old = r.it.axis.points[r.it.axis.nearest_sample(r.s)]
+        on_old = (r.it.axis.points, r.it.axis.nearest_sample(r.s))
         normal = None
         if br.parent[b] >= 0:
             pf = axes[br.parent[b]].frames[-1]
