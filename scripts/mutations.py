@@ -152,10 +152,10 @@ MUTATIONS = {
         "        scale = np.divide(self._area[:, None], norm.mean(), out=np.zeros_like(norm), where=norm > 0)",
         ["tests/test_geodesic.py"],
     ),
-    "geodesic_gradient_corner_swapped": (
+    "geodesic_poisson_sign": (
         "vesselgp/mesh/geodesic.py",
-        "    e = [P[2] - P[1], P[0] - P[2], P[1] - P[0]]\n    N = _cross(e[1], e[2])",
-        "    e = [P[2] - P[1], P[1] - P[0], P[0] - P[2]]\n    N = _cross(e[2], e[1])",
+        "        rhs = self._div @ (g * scale).reshape(3 * m, k)",
+        "        rhs = -(self._div @ (g * scale).reshape(3 * m, k))",
         ["tests/test_geodesic.py"],
     ),
     "geodesic_sources_not_at_zero": (

@@ -91,23 +91,6 @@ def test_bad_source_sets_are_refused(bad):
         GeodesicDistances(V, F).from_each(bad)
 
 
-def test_the_face_gradient_is_libigls():
-    import igl
-    from vesselgp.mesh.geodesic import _gradient
-    V, F = _random_sphere(500, 2.0, seed=3)
-    G, area = _gradient(V, F)
-    ref = igl.grad(V, F)
-    assert abs(G - ref).max() < 1e-12 * abs(ref).max()
-    assert np.abs(area - 0.5 * igl.doublearea(V, F)).max() < 1e-14 * area.max()
-    # a linear function has its own constant gradient in every face (up to the normal part)
-    g = np.array([0.4, -1.0, 2.0])
-    Gf = (G @ (V @ g)).reshape(3, -1).T
-    N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    N /= np.linalg.norm(N, axis=1)[:, None]
-    tangential = g - (N @ g)[:, None] * N
-    assert np.abs(Gf - tangential).max() < 1e-9
-
-
 def test_several_components_are_refused():
     from vesselgp.errors import InvalidMeshError
     V, F = _random_sphere(200, 1.0)
@@ -128,3 +111,15 @@ def test_a_given_topology_gives_the_same_distances_and_a_wrong_one_is_refused():
         GeodesicDistances(V, F[:-1], topo)
     with pytest.raises(OptionError, match="topology given"):  # the same counts, other faces
         GeodesicDistances(V, np.roll(F, 1, axis=0), topo)
+
+
+def test_a_checked_mesh_shares_its_topology_only_when_no_face_was_dropped():
+    from vesselgp.fit import checked_mesh
+    ves = synthetic_vessel("arc", radius=1.0)
+    V, F = ves.V, ves.F
+    c = checked_mesh(V, F)
+    assert c.faces_topology is c.topology
+    # a zero-area face (a repeated corner) on a vertex that keeps other faces: dropped from faces
+    F2 = np.vstack([F, [[F[0, 0], F[0, 1], F[0, 1]]]])
+    c2 = checked_mesh(V, F2)
+    assert len(c2.faces) == len(F) and c2.faces_topology is None

@@ -449,7 +449,8 @@ def fit_generalized_cylinder(
     mu = tol.GC_MU if mu is None else float(mu)
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
     _check_options(n_nodes, lam, mu, max_iter)
-    topo, Fg, median_edge = checked_mesh(V, F)
+    checked = checked_mesh(V, F)
+    topo, Fg, median_edge = checked
     e0, e1, end_ids, n_ends = _resolve_ends(V, F, ends, topo, mesh_ends)
     if initial_normal is not None:
         initial_normal = as_vector(initial_normal, "initial_normal")
@@ -462,7 +463,7 @@ def fit_generalized_cylinder(
     chord = float(np.linalg.norm(np.asarray(e1.center) - np.asarray(e0.center)))
     _check_aspect(chord, rscale)
     wall_area, area, end_region = _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics,
-                                                topo if Fg is F else None)
+                                                checked.faces_topology)
     nodes, s_prev, L0 = _initial_nodes(V, Fg, e0, e1, np.where(end_region, 0.0, area), chord, rscale, n_nodes,
                                        float(wall_area.sum()))
     sub = thinned(len(V), tol.GC_MAX_FIT_VERTICES)
@@ -647,6 +648,11 @@ class CheckedMesh(NamedTuple):
     faces: np.ndarray
     #: Median length of the face corners' edges (:func:`vesselgp.mesh_scale`'s measure).
     median_edge: float
+
+    @property
+    def faces_topology(self):
+        """``topology`` when it is also that of ``faces`` (no face was dropped), else None."""
+        return self.topology if len(self.faces) == self.topology.n_faces else None
 
 
 def checked_mesh(V, F):

@@ -372,7 +372,8 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     lam = tol.GC_LAMBDA if lam is None else float(lam)
     mu = tol.GC_MU if mu is None else float(mu)
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
-    topo, Fg, _ = checked_mesh(V, F)
+    checked = checked_mesh(V, F)
+    topo, Fg, _ = checked
     ends = _tree_ends(V, F, topo, ends)
     if len(ends) < 2:
         raise EndsError(f"a vessel tree needs at least two ends, the mesh has {len(ends)} "
@@ -384,8 +385,8 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                           vertex_branch=np.zeros(len(V), np.int64))
-    if geodesics is None:  # the topology is shared when no face was dropped
-        geodesics = GeodesicDistances(V, Fg, topo if Fg is F else None)
+    if geodesics is None:
+        geodesics = GeodesicDistances(V, Fg, checked.faces_topology)
     br = branch_decomposition(V, Fg, ends, root, geodesics=geodesics)
     area = voronoi_areas(V, Fg)
     caps = np.zeros(len(V), bool)

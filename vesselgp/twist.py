@@ -234,8 +234,8 @@ def scan_landmarks(V, F, ends=None):
     # one heat-geodesic factorisation for the tree and the main fit's path between its ends
     geo = None
     if len(all_ends) > 2:
-        topo, Fg, _ = checked_mesh(V, F)
-        geo = GeodesicDistances(V, Fg, topo if Fg is F else None)
+        checked = checked_mesh(V, F)
+        geo = GeodesicDistances(V, checked.faces, checked.faces_topology)
     tree = fit_vessel_tree(V, F, i, ends=all_ends, geodesics=geo)
     k = next(q for q, p in enumerate(tree.paths) if p.ends[1] == j)
     on_main = set(tree.path_branches[k])

@@ -98,8 +98,9 @@ class GeodesicDistances:
                                            True, self._heat)
         self._poisson = igl.min_quad_with_fixed_data()  # step 3: -L, vertex 0 pinned
         igl.min_quad_with_fixed_precompute((-L).tocsc(), np.zeros(1, np.int64), no_eq, True, self._poisson)
-        self._grad, self._area = _gradient(Vc, Fc)
-        self._div = self._grad.T.tocsr()  # minus the weak divergence of a face field, times the area
+        self._grad = igl.grad(Vc, Fc)  # (3 m, n): component d of face f's gradient in row d m + f
+        self._area = 0.5 * igl.doublearea(Vc, Fc)
+        self._div = self._grad.T  # minus the weak divergence of a face field, times the area
         self._n = len(Vc)
 
     def check(self, V, F):
@@ -176,37 +177,6 @@ class GeodesicDistances:
         for c, s in enumerate(sets):
             D[:, c] -= D[s, c].mean()
         return D
-
-
-def _gradient(V, F):
-    """The per-face gradient of piecewise-linear vertex functions, and the face areas.
-
-    Returns
-    -------
-    G : (3 m, n) scipy.sparse.csr_matrix
-        Row ``d * m + f`` gives component ``d`` of the gradient in face ``f`` (libigl
-        ``grad``'s layout): ``grad phi_i = N x e_i / |N|^2``, with ``e_i`` the edge opposite
-        corner ``i`` taken in the face's order and ``N = e_2 x (-e_1)`` twice the area vector.
-    area : (m,) float64
-    """
-    m = len(F)
-    P = [np.ascontiguousarray(V.take(F[:, k], axis=0).T) for k in range(3)]  # component-major corners
-    e = [P[2] - P[1], P[0] - P[2], P[1] - P[0]]
-    N = _cross(e[1], e[2])  # e2 x (-e1) = e1 x e2
-    dbl2 = N[0] * N[0] + N[1] * N[1] + N[2] * N[2]  # (2 A)^2
-    data = np.empty((3, m, 3))  # component, face, corner
-    for k in range(3):
-        g = _cross(N, e[k])
-        for d in range(3):
-            data[d, :, k] = g[d] / dbl2
-    G = sp.csr_matrix((data.reshape(-1), np.tile(F, (3, 1)).reshape(-1), np.arange(0, 9 * m + 1, 3)),
-                      shape=(3 * m, len(V)))
-    return G, 0.5 * np.sqrt(dbl2)
-
-
-def _cross(a, b):
-    """Cross products of component-major (3, m) vectors."""
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 def _closed(V, F, loops):
