@@ -256,12 +256,10 @@ def _grid_cells(V, h):
     The occupied cubes are marked in a table over the bounding grid when it has at most
     ``tolerances.GRID_TABLE_PER_VERTEX`` entries per vertex (one pass, no sort), else sorted.
     """
-    Q = V - V.min(axis=0)
-    Q /= h
-    key = Q.astype(np.int64)  # truncation is the floor: Q >= 0
-    del Q
-    dims = key.max(axis=0) + 1
-    lin = (key[:, 0] * dims[1] + key[:, 1]) * dims[2] + key[:, 2]
+    # one coordinate at a time: a reduction along the rows of an (n, 3) array runs about 6x slower
+    key = [((V[:, d] - V[:, d].min()) / h).astype(np.int64) for d in range(3)]  # truncation is the floor
+    dims = np.array([k.max() + 1 for k in key])
+    lin = (key[0] * dims[1] + key[1]) * dims[2] + key[2]
     del key
     total = int(np.prod(dims.astype(object)))
     if total <= tol.GRID_TABLE_PER_VERTEX * len(V):

@@ -9,6 +9,7 @@ import numpy as np
 from .. import tolerances as tol
 from .._validate import as_mesh
 from ..errors import OptionError
+from ._ends_format import bbox_diagonal
 from ._geometry import median_edge as _median_edge
 
 __all__ = ["mesh_scale", "MeshScale", "units_factor", "UNITS_TO_MM", "UNIT_NAMES"]
@@ -79,7 +80,7 @@ def mesh_scale(V, F, ends=None, *, median_edge=None):
     """
     V, F = as_mesh(V, F)
     med = _median_edge(V, F) if median_edge is None else float(median_edge)
-    diag = float(np.linalg.norm(V.max(0) - V.min(0)))
+    diag = bbox_diagonal(V)
     rr = None
     if ends:
         r = [e.radius for e in ends]
