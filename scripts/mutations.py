@@ -208,14 +208,14 @@ MUTATIONS = {
     ),
     "local_coords_stretch_sign": (
         "vesselgp/axis.py",
-        "        jac[rows] = 1.0 - _dot3(",
-        "        jac[rows] = 1.0 + _dot3(",
+        "    return (_dot3(T, d), _dot3(U, d), _dot3(W, d)), 1.0 - _dot3(",
+        "    return (_dot3(T, d), _dot3(U, d), _dot3(W, d)), 1.0 + _dot3(",
         ["tests/test_fit.py"],
     ),
     "newton_step_without_curvature": (
         "vesselgp/axis.py",
-        "            jac = np.maximum(1.0 - _dot3(k, d), tol.GC_MIN_STRETCH)",
-        "            jac = 1.0",
+        "        jac = np.maximum(1.0 - _dot3(k, d), tol.GC_MIN_STRETCH)",
+        "        jac = 1.0",
         ["tests/test_records.py", "tests/test_fit.py"],
     ),
     "carried_frame_not_projected": (
@@ -344,10 +344,22 @@ MUTATIONS = {
         "    cr /= np.linalg.norm(cr, axis=1, keepdims=True)\n    tgt = at[corners]",
         ["tests/test_inside.py"],
     ),
+    "axis_stack_segment_offsets": (
+        "vesselgp/axis.py",
+        "self.segoff = np.repeat(np.concatenate([[0], np.cumsum(M - 1)[:-1]]), counts)",
+        "self.segoff = np.repeat(np.concatenate([[0], np.cumsum(M)[:-1]]), counts)",
+        ["tests/test_fit.py::test_fixed_points_in_lock_step_equal_each_problem_alone", "tests/test_tree.py"],
+    ),
+    "fixed_points_node_offsets": (
+        "vesselgp/fit.py",
+        "self.rowoff = np.repeat(self.nodeoff, counts)",
+        "self.rowoff = np.repeat(self.nodeoff[::-1], counts)",
+        ["tests/test_fit.py::test_fixed_points_in_lock_step_equal_each_problem_alone", "tests/test_tree.py"],
+    ),
     "grid_cells_row_major_stride": (
         "vesselgp/fit.py",
-        "    lin = (key[:, 0] * dims[1] + key[:, 1]) * dims[2] + key[:, 2]",
-        "    lin = (key[:, 0] * dims[2] + key[:, 1]) * dims[1] + key[:, 2]",
+        "    lin = (key[0] * dims[1] + key[1]) * dims[2] + key[2]",
+        "    lin = (key[0] * dims[2] + key[1]) * dims[1] + key[2]",
         ["tests/test_fit.py"],
     ),
     "edge_pattern_transpose_dropped": (

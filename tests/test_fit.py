@@ -289,6 +289,28 @@ def test_real_bifurcation_needs_chosen_ends_and_follows_each_path():
         assert gc.radii[:3].mean() > 1.3 * gc.radii[-3:].mean()
 
 
+def test_fixed_points_in_lock_step_equal_each_problem_alone(monkeypatch):
+    """A tree's branches iterate on one stack (vesselgp.fit.fixed_points): each problem must get the
+    same nodes, parameters, radii and iteration count, bit for bit, as alone, also while the stack
+    shrinks (problems converging after different numbers of iterations)."""
+    import vesselgp.fit as fit
+    from vesselgp import tolerances as tol
+
+    seen, real = [], fit.fixed_points
+    monkeypatch.setattr(fit, "fixed_points", lambda problems, **kw: seen.extend(problems) or real(problems, **kw))
+    for curve, n in (("arc", 24), ("helix", 20), ("s_curve", 28)):
+        ves = synthetic_vessel(curve, radius=R0, n_around=n, remesh=False, noise=0.01, seed=5)
+        fit_generalized_cylinder(ves.V, ves.F)
+    kw = dict(lam=tol.GC_LAMBDA, mu=tol.GC_MU, max_iter=tol.GC_MAX_ITER)
+    together = real(seen, **kw)
+    alone = [real([p], **kw)[0] for p in seen]
+    assert len(seen) == 3 and len({a.count for a in alone}) > 1
+    for a, b in zip(alone, together):
+        assert (a.count, a.converged) == (b.count, b.converged) and a.converged
+        for x, y in ((a.nodes, b.nodes), (a.s, b.s), (a.radii, b.radii), (a.rejected, b.rejected)):
+            assert np.array_equal(x, y)
+
+
 @pytest.mark.parametrize("case", ["arch", "coronary"])
 def test_a_converged_fit_is_at_its_fixed_point_within_the_tolerance(case, monkeypatch):
     """``converged`` means the axis is within about the tolerance of the fixed point: iterated on

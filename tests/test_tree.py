@@ -24,7 +24,7 @@ from _data import REAL
 README_AXIS = {"4 tips": (0.92, 0.037), "3 tips": (1.1, 0.035), "8 tips": (0.96, 0.038)}
 README_RADIUS_MAX = {"4 tips": 0.92, "3 tips": 0.45, "8 tips": 3.65}  # % worst radius error, same stretch
 README_JUNCTION = 0.27        # junction distance from the true one, in parent end radii
-# README "segmentation-like" row: the voxel staircase of the 4-tip tree (voxel 0.4) smoothed by
+# README "segmentation-like tree" (Accuracy and speed): the voxel staircase of the 4-tip tree (voxel 0.4) smoothed by
 # clean_mesh(smooth=10); worst and worst mean path-axis error (% r), same stretch
 README_STAIRCASE_AXIS = (3.23, 0.74)
 

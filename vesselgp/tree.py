@@ -45,7 +45,7 @@ from .branches import branch_decomposition, root_end
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
 from .fit import (GeneralizedCylinder, check_cylinder_bend, checked_mesh, cylinder_from_axis,
-                  fit_generalized_cylinder, fixed_point)
+                  FitProblem, fit_generalized_cylinder, fixed_points)
 from .inside import SurfaceWinding, check_axis_inside
 from .mesh import vessel_ends
 from .mesh._geometry import voronoi_areas
@@ -149,8 +149,9 @@ def _bands(V, area, phi, K0):
     return cen, ph, rad
 
 
-def _fit_branch(V, area, rd, idx, caps, start, end, lam, mu, max_iter):
-    """Eq. 3 / Eq. 5 fixed point on one branch's vertices, initialised on bands of root distance.
+def _branch_problem(V, area, rd, idx, caps, start, end):
+    """The Eq. 3 / Eq. 5 fixed point of one branch's vertices, initialised on bands of root distance,
+    and its radius scale.
 
     ``start`` / ``end`` are the end centres to pin the initial axis to (the
     root's and a tip's), or None at a junction side.
@@ -175,9 +176,7 @@ def _fit_branch(V, area, rd, idx, caps, start, end, lam, mu, max_iter):
     L0 = float(arc[-1])
     s0 = np.interp(phi, pv, arc / L0)
     K = int(np.clip(L0 / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
-    it = fixed_point(resample_arclength(pts, K), s0, Vb, ab, caps, rscale, L0, lam=lam, mu=mu,
-                     max_iter=max_iter, what="vessel-tree branch fit")
-    return _RawBranch(idx=idx, nodes=it.nodes, s=it.s, it=it, rscale=rscale)
+    return FitProblem(resample_arclength(pts, K), s0, Vb, ab, caps, rscale, L0)
 
 
 # ----------------------------------------------------------------------------- junctions
@@ -394,12 +393,17 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
         if e.kind != "open":
             caps[np.asarray(e.vertices, np.int64)] = True
     leaf_tip = {b: t for t, b in br.end_branch.items()}
-    raw = []
+    problems, ids = [], []
     for b in range(len(br.parent)):
         idx = np.flatnonzero(br.vertex_branch == b)
         start = ends[root].center if b == 0 else None
         end = ends[leaf_tip[b]].center if b in leaf_tip else None
-        raw.append(_fit_branch(V, area, br.root_distance, idx, caps[idx], start, end, lam, mu, max_iter))
+        problems.append(_branch_problem(V, area, br.root_distance, idx, caps[idx], start, end))
+        ids.append(idx)
+    # the branches' fixed points in lock step (one vectorised pass per iteration over all of them)
+    fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit")
+    raw = [_RawBranch(idx=idx, nodes=it.nodes, s=it.s, it=it, rscale=p.rscale)
+           for idx, it, p in zip(ids, fits, problems)]
     junctions, junction_branch, nodes = _junctions(raw, br.parent)
     branches, axes = _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu)
     paths, path_branches = _paths(V, area, caps, branches, axes, raw, br, root, lam, mu)
