@@ -344,6 +344,24 @@ MUTATIONS = {
         "    cr /= np.linalg.norm(cr, axis=1, keepdims=True)\n    tgt = at[corners]",
         ["tests/test_inside.py"],
     ),
+    "vertex_components_one_direction": (
+        "vesselgp/mesh/topology.py",
+        'k, lab = connected_components(self.adjacency, directed=True, connection="strong")',
+        'k, lab = connected_components(sp.triu(self.adjacency).tocsr(), directed=True, connection="strong")',
+        ["tests/test_topology.py"],
+    ),
+    "persistence_ties_to_the_smaller_id": (
+        "vesselgp/mesh/_ends_tips.py",
+        "climb = valid & ((top > D) | ((top == D) & (best > up)))",
+        "climb = valid & ((top > D) | ((top == D) & (best < up)))",
+        ["tests/test_ends_trees.py"],
+    ),
+    "persistence_saddle_is_the_upper_end": (
+        "vesselgp/mesh/_ends_tips.py",
+        "s = np.where((D[u] < D[v]) | ((D[u] == D[v]) & (u < v)), u, v)",
+        "s = np.where((D[u] < D[v]) | ((D[u] == D[v]) & (u < v)), v, u)",
+        ["tests/test_ends_trees.py"],
+    ),
     "axis_stack_segment_offsets": (
         "vesselgp/axis.py",
         "self.segoff = np.repeat(np.concatenate([[0], np.cumsum(M - 1)[:-1]]), counts)",

@@ -578,3 +578,62 @@ def test_metre_scale_points_keep_their_digits():
     with pytest.raises(EndsError) as ei:
         select_ends(ends)
     assert "(0.1005, 0, 0)" in str(ei.value)
+
+
+def _persistence_by_sweep(nbrs, D, valid):
+    """0-dimensional persistence of the superlevel sets of ``D`` on a graph, the textbook way.
+
+    Vertices enter from the highest down (ties: the larger id first, i.e. (D, id) ordered); a vertex
+    joins its entered neighbours' components, and where two components meet, the one with the lower
+    maximum dies there (elder rule): its persistence is its maximum's D minus the meeting vertex's D.
+    Returns {maximum: persistence} (inf for the highest of each piece).
+    """
+    order = sorted(np.flatnonzero(valid).tolist(), key=lambda v: (D[v], v), reverse=True)
+    parent, top, pers, entered = {}, {}, {}, set()
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for v in order:
+        roots = {find(u) for u in nbrs[v] if u in entered}
+        entered.add(v)
+        if not roots:
+            parent[v], top[v], pers[v] = v, v, np.inf
+            continue
+        roots = sorted(roots, key=lambda r: (D[top[r]], top[r]), reverse=True)  # the eldest first
+        parent[v] = roots[0]
+        for r in roots[1:]:
+            pers[top[r]] = float(D[top[r]] - D[v])
+            parent[r] = roots[0]
+    return pers
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_persistent_maxima_are_the_textbook_persistence_pairs(seed):
+    """Maxima of D and their persistence, on random graphs with many tied values and a few unused or
+    unreachable vertices, against the union-find sweep written out above."""
+    import scipy.sparse as sp
+
+    from vesselgp.mesh._ends_tips import persistent_maxima
+
+    rng = np.random.default_rng(seed)
+    n = 300
+    E = np.unique(np.sort(rng.integers(0, n, size=(900, 2)), axis=1), axis=0)
+    E = E[E[:, 0] != E[:, 1]]
+    G = sp.coo_array((np.ones(2 * len(E)), (np.r_[E[:, 0], E[:, 1]], np.r_[E[:, 1], E[:, 0]])), shape=(n, n)).tocsr()
+    D = rng.integers(0, 25, size=n).astype(float)  # many ties: broken by vertex id
+    D[rng.choice(n, 10, replace=False)] = np.inf
+    used = rng.random(n) > 0.05
+    valid = used & np.isfinite(D)
+    nbrs = [[] for _ in range(n)]
+    for a, b in E:
+        if valid[a] and valid[b]:
+            nbrs[a].append(b)
+            nbrs[b].append(a)
+    truth = _persistence_by_sweep(nbrs, D, valid)
+    got = persistent_maxima(G, E, D, used)
+    assert dict(got) == truth
+    assert got == sorted(got, key=lambda t: (-t[1], t[0]))

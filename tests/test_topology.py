@@ -90,6 +90,25 @@ def test_two_disjoint_triangles_are_two_components():
     assert t.euler_characteristic == 2  # two disks
 
 
+def test_vertex_components_are_libigls_on_several_shuffled_pieces():
+    """Three copies of a real mesh and two unreferenced vertices, vertices and faces shuffled: the
+    components (found on the adjacency as strongly connected ones) are libigl's partition."""
+    V, F = read_mesh(REAL / "xra_coronary_single_branch_open.stl")
+    n = len(V)
+    rng = np.random.default_rng(4)
+    F3 = np.vstack([F, F + n, F + 2 * n])
+    perm = rng.permutation(3 * n + 2)  # vertex 3n and 3n + 1 are referenced by no face
+    F3 = perm[F3][rng.permutation(len(F3))]
+    k, lab = mesh_topology(F3, 3 * n + 2).vertex_components
+    ref = np.zeros(3 * n + 2, bool)
+    ref[F3.ravel()] = True
+    truth = igl.vertex_components(F3)[: len(ref)]
+    assert k == 3 + 2 == len(np.unique(truth[ref])) + int((~ref).sum())
+    pairs = np.unique(np.c_[lab[ref], truth[ref]], axis=0)  # one label of ours for each of libigl's
+    assert len(pairs) == 3 == len(np.unique(pairs[:, 0])) == len(np.unique(pairs[:, 1]))
+    assert len(np.unique(lab[~ref])) == 2 and not np.isin(lab[~ref], lab[ref]).any()
+
+
 def test_flipped_face_is_detected():
     F = TET.copy()
     F[3] = F[3, ::-1]

@@ -131,6 +131,12 @@ def find_tips(V, F, N, A, G, E, h, sources, used):
 def persistent_maxima(G, E, D, used):
     """Local maxima of ``D`` on the graph with their persistence, most persistent first.
 
+    Values are ordered by ``(D, vertex id)``: ties go to the larger id. Every vertex climbs to
+    its highest neighbour (steepest ascent) and the maxima's basins come out of pointer jumping;
+    the highest edge between two basins (its lower end) is their saddle, and basins merge at
+    their saddles from the highest down, the younger maximum dying there (elder rule). This is
+    0-dimensional persistence of the superlevel sets; no vertex is sorted but the saddles'.
+
     Parameters
     ----------
     G : (n, n) scipy.sparse.csr_array
@@ -148,60 +154,63 @@ def persistent_maxima(G, E, D, used):
         Vertex of each maximum and its persistence (``inf`` for the highest of
         each connected piece), sorted by decreasing persistence, then vertex.
     """
-    n = len(D)
-    idx = np.flatnonzero(used & np.isfinite(D))
-    if len(idx) == 0:
+    valid = used & np.isfinite(D)
+    if not valid.any():
         return []
-    order = idx[np.argsort(D[idx], kind="stable")]  # rank -> vertex; ties by vertex id
-    rank = np.full(n, -1, dtype=np.int64)
-    rank[order] = np.arange(len(order))
-    up = _climb(G, rank, order)
+    up = _climb(G, D, valid)
     root = up
     while True:  # pointer jumping to each vertex's maximum
         nxt = root[root]
         if np.array_equal(nxt, root):
             break
         root = nxt
-    maxima = idx[up[idx] == idx]
-    pers = _merge(E, D, rank, order, root, maxima)
+    maxima = np.flatnonzero(valid & (up == np.arange(len(D))))
+    pers = _merge(E, D, valid, root, maxima)
     out = sorted(zip(maxima.tolist(), pers.tolist()), key=lambda t: (-t[1], t[0]))
     return out
 
 
-def _climb(G, rank, order):
-    """Highest-ranked neighbour of each vertex if above it, else the vertex itself: (n,) int64."""
-    n = len(rank)
+def _climb(G, D, valid):
+    """Highest neighbour of each valid vertex, by ``(D, id)``, if above it, else the vertex itself: (n,) int64."""
+    n = len(D)
     indptr, nb = G.indptr, G.indices
-    rn = rank[nb]
+    Dn = np.where(valid, D, -np.inf).take(nb)
     deg = np.diff(indptr)
-    best = np.full(n, -1, dtype=np.int64)
     nz = deg > 0
+    top = np.full(n, -np.inf)
+    best = np.full(n, -1, dtype=np.int64)
     if nz.any():
-        best[nz] = np.maximum.reduceat(rn, indptr[:-1][nz])
+        starts = indptr[:-1][nz]
+        top[nz] = np.maximum.reduceat(Dn, starts)
+        # the largest id among the neighbours at that value (ties go to the larger id); a vertex
+        # with no valid neighbour has top = -inf and never climbs
+        best[nz] = np.maximum.reduceat(np.where(Dn == np.repeat(top, deg), nb, -1), starts)
     up = np.arange(n)
-    climb = (rank >= 0) & (best > rank)
-    up[climb] = order[best[climb]]
+    climb = valid & ((top > D) | ((top == D) & (best > up)))
+    up[climb] = best[climb]
     return up
 
 
-def _merge(E, D, rank, order, root, maxima):
+def _merge(E, D, valid, root, maxima):
     """Persistence of each maximum (elder rule over the basins' highest saddles)."""
     u, v = E[:, 0], E[:, 1]
-    keep = (u != v) & (rank[u] >= 0) & (rank[v] >= 0)
+    keep = (u != v) & valid[u] & valid[v]
     u, v = u[keep], v[keep]
     a, b = root[u], root[v]
     cross = a != b
+    u, v = u[cross], v[cross]
     a, b = np.minimum(a[cross], b[cross]), np.maximum(a[cross], b[cross])
-    w = np.minimum(rank[u[cross]], rank[v[cross]])  # the saddle: the lower end of the crossing edge
-    if len(w):
-        key = a.astype(np.int64) * len(rank) + b
-        srt = np.lexsort((-w, key))
+    # the saddle: the lower end of the crossing edge, by (D, id)
+    s = np.where((D[u] < D[v]) | ((D[u] == D[v]) & (u < v)), u, v)
+    if len(s):
+        key = a.astype(np.int64) * len(D) + b
+        srt = np.lexsort((-s, -D[s], key))  # per pair of basins, the highest saddle first
         first = np.ones(len(srt), dtype=bool)
         first[1:] = key[srt[1:]] != key[srt[:-1]]
-        pick = srt[first]  # highest saddle of each pair of basins
-        a, b, w = a[pick], b[pick], w[pick]
-        o = np.argsort(-w, kind="stable")
-        a, b, w = a[o], b[o], w[o]
+        pick = srt[first]
+        a, b, s = a[pick], b[pick], s[pick]
+        o = np.lexsort((np.arange(len(s)), -s, -D[s]))  # the pairs from the highest saddle down
+        a, b, s = a[o], b[o], s[o]
     parent = {int(m): int(m) for m in maxima}
     pers = {int(m): math.inf for m in maxima}
 
@@ -211,12 +220,12 @@ def _merge(E, D, rank, order, root, maxima):
             x = parent[x]
         return x
 
-    for x, y, s in zip(a.tolist(), b.tolist(), w.tolist()):
+    for x, y, z in zip(a.tolist(), b.tolist(), s.tolist()):
         rx, ry = find(x), find(y)
         if rx == ry:
             continue
-        young, old = (rx, ry) if rank[rx] < rank[ry] else (ry, rx)  # a set's root is its maximum
-        pers[young] = float(D[young] - D[order[s]])
+        young, old = (rx, ry) if (D[rx], rx) < (D[ry], ry) else (ry, rx)  # a set's root is its maximum
+        pers[young] = float(D[young] - D[z])
         parent[young] = old
     return np.array([pers[int(m)] for m in maxima])
 

