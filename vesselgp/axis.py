@@ -24,8 +24,8 @@ from .curves import chord_length, resample_arclength, rotation_minimizing_frames
 from .errors import NotTubularError
 from .rotations import perpendicular
 
-__all__ = ["Axis", "AxisStack", "interp_frames", "hat", "hat_matrix", "difference_matrix", "circle_fit_correction", "circle_fit_sums",
-           "checked_solution", "solve_banded_spd", "local_coords"]
+__all__ = ["Axis", "AxisStack", "interp_frames", "hat", "hat_matrix", "difference_matrix", "circle_fit_correction",
+           "circle_fit_sums", "checked_solution", "solve_banded_spd", "local_coords"]
 
 
 def _segment_table(dp, dfr, kvec=None):
@@ -287,10 +287,11 @@ def _local_rows(table, kvec_t, PT, s, m1=None, segoff=0, smpoff=0):
 class AxisStack:
     """Several axes side by side, each with its own rows of points: one vectorised pass over all.
 
-    The fixed points of a tree's branches run in lock step on one stack (their
-    iterations cost mostly per-call overhead: a 3k-vertex branch and a 8k one cost
-    about the same). Rows ``offsets[b]:offsets[b + 1]`` belong to ``axes[b]``; each row
-    gets exactly the numbers its own axis's :meth:`Axis.project` (without a window) and
+    The fixed points of a tree's branches run in lock step on one stack
+    (:func:`vesselgp.fit.fixed_points`): much of a small branch's iteration is per-call
+    overhead, paid once per pass instead of once per branch. The first ``counts[0]`` rows
+    belong to ``axes[0]``, the next ``counts[1]`` to ``axes[1]``, and so on; each row gets
+    exactly the numbers its own axis's :meth:`Axis.project` (without a window) and
     :func:`local_coords` would give it.
 
     Parameters

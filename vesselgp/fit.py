@@ -337,7 +337,7 @@ def _nondegenerate_faces(V, F):
     L = igl.edge_lengths(V, F)
     e2 = np.maximum(np.maximum(L[:, 0], L[:, 1]), L[:, 2]) ** 2  # a tenth of L.max(axis=1)'s time
     bad = ~(dbl > 2.0 * tol.DEGENERATE_AREA * e2)
-    med = float(np.median(L))
+    med = float(np.median(L, overwrite_input=True))  # L is not needed after: no copy of it
     if not bad.any():
         return F, med
     Fg = F[~bad]
@@ -506,8 +506,9 @@ def _spread_to_neighbours(adjacency, sub, s_sub):
     s = np.zeros(n)
     known = np.zeros(n, bool)
     s[sub], known[sub] = s_sub, True
+    A = adjacency.astype(np.float64)  # once: scipy would upcast small integer data in every product
     while not known.all():
-        total, count = adjacency @ s, adjacency @ known.astype(np.float64)
+        total, count = A @ s, A @ known.astype(np.float64)
         new = ~known & (count > 0)
         if not new.any():  # unreachable: the mesh is one connected component (checked_mesh)
             raise InvalidMeshError("mesh has vertices unconnected to the rest; run vesselgp.clean_mesh first")
