@@ -362,6 +362,12 @@ MUTATIONS = {
         "s = np.where((D[u] < D[v]) | ((D[u] == D[v]) & (u < v)), v, u)",
         ["tests/test_ends_trees.py"],
     ),
+    "coarse_graph_edges_one_way": (
+        "vesselgp/fit.py",
+        "        cross = ca != cb\n",
+        "        cross = ca < cb\n",
+        ["tests/test_fit.py::test_coarse_harmonic_from_the_unique_edges_is_the_one_from_the_faces"],
+    ),
     "axis_stack_segment_offsets": (
         "vesselgp/axis.py",
         "self.segoff = np.repeat(np.concatenate([[0], np.cumsum(M - 1)[:-1]]), counts)",

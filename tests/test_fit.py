@@ -289,6 +289,29 @@ def test_real_bifurcation_needs_chosen_ends_and_follows_each_path():
         assert gc.radii[:3].mean() > 1.3 * gc.radii[-3:].mean()
 
 
+def test_coarse_harmonic_from_the_unique_edges_is_the_one_from_the_faces(monkeypatch):
+    """The coarse harmonic initialisation joins its cells along the mesh's edges: read once each
+    (the topology's edge list) or as the faces' corners (each interior edge twice), the cell graph
+    and so the field must be the same, bit for bit; and the field runs from 0 at one end to 1 at
+    the other along the vessel."""
+    import vesselgp.fit as fit
+    from vesselgp import tolerances as tol
+    from vesselgp.mesh import mesh_topology
+
+    monkeypatch.setattr(tol, "GC_COARSE_INIT_VERTICES", 1000)
+    ves = synthetic_vessel("s_curve", radius=R0, n_around=24, remesh=True, seed=2)
+    V, F = ves.V, ves.F
+    ends = vesselgp.vessel_ends(V, F)
+    b = np.concatenate([ends[0].vertices, ends[1].vertices])
+    bc = np.r_[np.zeros(len(ends[0].vertices)), np.ones(len(ends[1].vertices))]
+    area = float(igl.doublearea(V, F).sum() / 2)
+    a = fit._harmonic_between(V, F, b, bc, R0, area)
+    e = fit._harmonic_between(V, F, b, bc, R0, area, mesh_topology(F, len(V)).edges)
+    assert len(V) > 1000 and np.array_equal(a, e)
+    along = np.corrcoef(a, (V - ends[0].center) @ (ends[1].center - ends[0].center))[0, 1]
+    assert a.min() >= -1e-9 and a.max() <= 1 + 1e-9 and along > 0.9
+
+
 def test_fixed_points_in_lock_step_equal_each_problem_alone(monkeypatch):
     """A tree's branches iterate on one stack (vesselgp.fit.fixed_points): each problem must get the
     same nodes, parameters, radii and iteration count, bit for bit, as alone, also while the stack

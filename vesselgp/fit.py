@@ -229,25 +229,33 @@ def _path_mask(V, F, e0, e1, rscale, geodesics=None, topology=None):
     return ex <= tol.BRANCH_PATH_RADII * rscale
 
 
-def _harmonic_between(V, F, b, bc, rscale, total_area):
+def _harmonic_between(V, F, b, bc, rscale, total_area, edges=None):
     """Harmonic field with values ``bc`` at vertices ``b`` (cotangent Laplacian, libigl).
 
     Meshes above :data:`tolerances.GC_COARSE_INIT_VERTICES` vertices get the
     field of a vertex-clustered copy (cells a fraction of the radius wide, and
     about ``total_area / GC_COARSE_INIT_CELLS`` in area at most; graph
     Laplacian): it only seeds the fit, and a million-row factorisation would
-    cost far more than the whole fit.
+    cost far more than the whole fit. Its cells are joined where an edge of ``F``
+    joins them: ``edges`` ((e, 2), each edge of ``F`` once), when given, are read
+    instead of the faces' three corner edges (half the rows, the same graph).
     """
     if len(V) <= tol.GC_COARSE_INIT_VERTICES:
         return igl.harmonic(V, F, b, np.ascontiguousarray(bc[:, None]), 1).ravel()
     h = min(np.sqrt(total_area / tol.GC_COARSE_INIT_CELLS), tol.GC_COARSE_CELL_RADII * rscale)
     cell = _grid_cells(V, h)
     nc = int(cell.max()) + 1
-    # the cells' graph: every face's corner edges (each interior edge twice; symmetrised below)
-    cf = cell[F]
-    ce = np.concatenate([cf[:, [i, (i + 1) % 3]][cf[:, i] != cf[:, (i + 1) % 3]] for i in range(3)])
-    del cf
-    A = sp.coo_matrix((np.ones(len(ce)), (ce[:, 0], ce[:, 1])), shape=(nc, nc)).tocsr()
+    # the cells' graph: the mesh's edges between two cells (symmetrised below)
+    if edges is None:  # every face's corner edges (each interior edge twice)
+        cf = cell[F]
+        ce = np.concatenate([cf[:, [i, (i + 1) % 3]][cf[:, i] != cf[:, (i + 1) % 3]] for i in range(3)])
+        del cf
+        ca, cb = ce[:, 0], ce[:, 1]
+    else:
+        ca, cb = cell.take(edges[:, 0]), cell.take(edges[:, 1])
+        cross = ca != cb
+        ca, cb = ca[cross], cb[cross]
+    A = sp.coo_matrix((np.ones(len(ca)), (ca, cb)), shape=(nc, nc)).tocsr()
     A = ((A + A.T) > 0).astype(float)
     L = (sp.diags(np.asarray(A.sum(axis=1)).ravel()) - A).tocsr()
     cb = cell[b]
@@ -283,12 +291,12 @@ def _grid_cells(V, h):
     return cell.astype(np.int32 if cell.max() < np.iinfo(np.int32).max else np.int64)
 
 
-def _initial_axis(V, F, e0, e1, area, K0, rscale, total_area):
+def _initial_axis(V, F, e0, e1, area, K0, rscale, total_area, edges=None):
     """Harmonic field between the ends, then area-weighted centroids of its level bands (Eq. 1)."""
     b = np.concatenate([np.asarray(e0.vertices, np.int64), np.asarray(e1.vertices, np.int64)])
     bc = np.concatenate([np.zeros(len(e0.vertices)), np.ones(len(e1.vertices))])
     b, first = np.unique(b, return_index=True)
-    phi = _harmonic_between(V, F, b, bc[first], rscale, total_area)
+    phi = _harmonic_between(V, F, b, bc[first], rscale, total_area, edges)
     phi = np.clip(phi, 0.0, 1.0)
     band = np.minimum((phi * K0).astype(np.int64), K0 - 1)
     wsum = np.bincount(band, weights=area, minlength=K0)
@@ -473,8 +481,9 @@ def fit_generalized_cylinder(
     _check_aspect(chord, rscale)
     wall_area, area, end_region = _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics,
                                                 checked.faces_topology)
+    ftopo = checked.faces_topology  # the topology of Fg, when no zero-area face was dropped
     nodes, s_prev, L0 = _initial_nodes(V, Fg, e0, e1, np.where(end_region, 0.0, area), chord, rscale, n_nodes,
-                                       float(wall_area.sum()))
+                                       float(wall_area.sum()), None if ftopo is None else ftopo.edges)
     sub = thinned(len(V), tol.GC_MAX_FIT_VERTICES)
     it = fixed_point(nodes, s_prev[sub], V[sub], area[sub], end_region[sub], rscale, L0,
                      lam=lam, mu=mu, max_iter=max_iter, initial_normal=initial_normal)
@@ -811,13 +820,13 @@ def _data_weights(V, Fg, e0, e1, n_ends, rscale, geodesics=None, topology=None):
     return wall_area, area, end_region
 
 
-def _initial_nodes(V, Fg, e0, e1, area, chord, rscale, n_nodes, total_area):
+def _initial_nodes(V, Fg, e0, e1, area, chord, rscale, n_nodes, total_area, edges=None):
     """Harmonic initialisation: K nodes at equal arc length, the vertices' first s and the axis length.
 
     ``area`` weighs the band centroids; ``total_area`` (the surface's) sizes the coarse cells
-    of :func:`_harmonic_between`."""
+    of :func:`_harmonic_between`, ``edges`` (each edge of ``Fg`` once, when known) join them."""
     K0 = int(np.clip(chord / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
-    pts, s_prev = _initial_axis(V, Fg, e0, e1, area, K0, rscale, total_area)
+    pts, s_prev = _initial_axis(V, Fg, e0, e1, area, K0, rscale, total_area, edges)
     L0 = chord_length(pts)[-1]
     K = int(n_nodes or np.clip(L0 / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
     nodes = resample_arclength(pts, K)
