@@ -25,7 +25,7 @@ from .errors import NotTubularError
 from .rotations import perpendicular
 
 __all__ = ["Axis", "AxisStack", "interp_frames", "hat", "hat_matrix", "difference_matrix", "circle_fit_correction",
-           "circle_fit_sums", "checked_solution", "solve_banded_spd", "local_coords"]
+           "circle_fit_sums", "circle_fit_solve", "checked_solution", "solve_banded_spd", "local_coords"]
 
 
 def _segment_table(dp, dfr, kvec=None):
@@ -53,14 +53,15 @@ def _dot3(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def _interp(table, s, frames=True, m1=None, segoff=0):
+def _interp(table, s, frames=True, m1=None, segoff=None):
     """Linear interpolation of a :func:`_segment_table` at ``s`` (clipped to [0, 1]), component-major.
 
     Returns ``pts, T, k`` ((3, n) each; ``k`` None without curvature rows) and, with
     ``frames``, ``U, W`` too: T unit, U re-orthonormalised against it, W = T x U.
 
     ``table`` may be several axes' tables side by side (:class:`AxisStack`): then ``m1``
-    (each row's axis's segment count) and ``segoff`` (its first column) are per-row arrays.
+    (each row's axis's segment count) and ``segoff`` (its first column) are per-row arrays;
+    without them the table is one axis's.
     """
     s = np.clip(np.asarray(s, float), 0.0, 1.0)
     if m1 is None:
@@ -69,7 +70,7 @@ def _interp(table, s, frames=True, m1=None, segoff=0):
     j = np.minimum(x.astype(np.int64), m1 - 1)
     t = x - j
     u0 = table.shape[0] - 6  # U rows start here (after the optional curvature)
-    G = table.take(j if np.isscalar(segoff) and segoff == 0 else j + segoff, axis=1)
+    G = table.take(j if segoff is None else j + segoff, axis=1)
     pts = G[0:3] + t * G[3:6]
     T = G[6:9] + t * G[9:12]
     T /= np.sqrt(_dot3(T, T))
@@ -182,7 +183,7 @@ class Axis:
 
     def nearest_sample(self, s):
         """Index of the dense sample nearest each ``s`` (clipped to the axis), (n,) int64."""
-        return np.clip(np.rint(np.clip(s, 0, 1) * (len(self.s) - 1)).astype(np.int64), 0, len(self.s) - 1)
+        return _nearest_sample(s, len(self.s) - 1)
 
     def at(self, s):
         return interp_frames(self.s, self.points, self.frames, s, table=self.table)
@@ -253,7 +254,12 @@ class Axis:
         return _newton(self.table, np.ascontiguousarray(P.T) if steps else None, s, self.length, steps)
 
 
-def _newton(table, PT, s, length, steps, m1=None, segoff=0):
+def _nearest_sample(s, m1):
+    """Index of the sample nearest each ``s`` among ``m1 + 1`` uniform ones on [0, 1] (clipped), int64."""
+    return np.clip(np.rint(np.clip(s, 0, 1) * m1).astype(np.int64), 0, m1)
+
+
+def _newton(table, PT, s, length, steps, m1=None, segoff=None):
     """``steps`` Newton steps of the closest-point parameters ``s`` of the points ``PT`` ((3, n)).
 
     ``length``, ``m1`` and ``segoff`` are scalars for one axis, per-row arrays for an
@@ -269,7 +275,7 @@ def _newton(table, PT, s, length, steps, m1=None, segoff=0):
     return s
 
 
-def _local_rows(table, kvec_t, PT, s, m1=None, segoff=0, smpoff=0):
+def _local_rows(table, kvec_t, PT, s, m1=None, segoff=None, smpoff=None):
     """:func:`local_coords` of the points ``PT`` ((3, n)): the three coordinates and the stretch.
 
     ``m1``, ``segoff`` and ``smpoff`` (first dense sample of each row's axis) as for
@@ -277,10 +283,8 @@ def _local_rows(table, kvec_t, PT, s, m1=None, segoff=0, smpoff=0):
     """
     pts, T, _, U, W = _interp(table, s, m1=m1, segoff=segoff)
     d = PT - pts
-    if m1 is None:
-        m1 = table.shape[1]
-    near = np.clip(np.rint(np.clip(s, 0, 1) * m1).astype(np.int64), 0, m1)  # Axis.nearest_sample
-    near = near if np.isscalar(smpoff) and smpoff == 0 else near + smpoff
+    near = _nearest_sample(s, table.shape[1] if m1 is None else m1)
+    near = near if smpoff is None else near + smpoff
     return (_dot3(T, d), _dot3(U, d), _dot3(W, d)), 1.0 - _dot3(kvec_t.take(near, axis=1), d)
 
 
@@ -308,7 +312,7 @@ class AxisStack:
         if len(axes) == 1:
             a = axes[0]
             self.table, self.kvec_t, self.length = a.table, a.kvec_t, a.length
-            self.m1, self.segoff, self.smpoff = len(a.s) - 1, 0, 0
+            self.m1, self.segoff, self.smpoff = len(a.s) - 1, None, None
             return
         M = np.array([len(a.s) for a in axes])
         counts = np.asarray(counts)
@@ -319,8 +323,10 @@ class AxisStack:
         self.segoff = np.repeat(np.concatenate([[0], np.cumsum(M - 1)[:-1]]), counts)
         self.smpoff = np.repeat(np.concatenate([[0], np.cumsum(M)[:-1]]), counts)
 
-    def _at(self, x, rows):
-        return x if np.isscalar(x) else x[rows]
+    @staticmethod
+    def _at(x, rows):
+        """Rows ``rows`` of a per-row array; a scalar or None (one axis) as it is."""
+        return x if x is None or np.isscalar(x) else x[rows]
 
     def project(self, s_prev, steps):
         """Newton steps from ``s_prev`` (n,) on each row's axis, as :meth:`Axis.project` without a window."""
@@ -423,7 +429,7 @@ def _segment_sums(j, cols, K):
     return np.stack([np.bincount(j, c, minlength=K - 1) for c in cols], axis=1)
 
 
-def circle_fit_sums(s, local, w, K, rscale, nodeoff=0, total=None):
+def circle_fit_sums(s, local, w, K, rscale, nodeoff=None, total=None):
     """The data part of :func:`circle_fit_correction`: its 21 products and 6 right-hand sides
     summed per segment, ``S`` (N - 1, 21) and ``R`` (N - 1, 6) with ``N = K``.
 
@@ -432,7 +438,7 @@ def circle_fit_sums(s, local, w, K, rscale, nodeoff=0, total=None):
     rows are ``nodeoff_b : nodeoff_b + K_b - 1``, the same sums it would have alone.
     """
     j, t = hat(s, K)
-    if not (np.isscalar(nodeoff) and nodeoff == 0):
+    if nodeoff is not None:
         j = j + nodeoff
     x, y = local[:, 1], local[:, 2]
     sw = np.sqrt(w) / (2.0 * rscale)
@@ -445,7 +451,7 @@ def circle_fit_sums(s, local, w, K, rscale, nodeoff=0, total=None):
             _segment_sums(j, (g * b for g in G), N))
 
 
-def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_ends=True, sums=None):
+def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_ends=True):
     """One linear solve of the area-weighted Kasa circle fit with hat functions in s.
 
     Unknowns per node: centre correction ``(cx, cy)`` in the node frame (U, V)
@@ -460,14 +466,19 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
     of six coefficients, each summed per segment by a ``bincount``; the regulariser
     is one batched Gram product over the second differences.
 
-    ``sums``, when given, is :func:`circle_fit_sums` of the data (``s``, ``local`` and ``w``
-    are then not used).
+    :func:`circle_fit_sums` of the data, then :func:`circle_fit_solve`.
 
     Returns the corrections as 3-D vectors, (K, 3).
     """
+    S, R = circle_fit_sums(s, local, w, len(centers), rscale)
+    return circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends)
+
+
+def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=True):
+    """The regularised normal equations of :func:`circle_fit_correction` from its data sums
+    ``S`` (K - 1, 21) and ``R`` (K - 1, 6) (:func:`circle_fit_sums`), solved: (K, 3) corrections."""
     K = len(centers)
     n3 = 3 * K
-    S, R = circle_fit_sums(s, local, w, K, rscale) if sums is None else sums
     rhs = np.zeros(n3)
     rhs[: 3 * (K - 1)] += R[:, :3].ravel()
     rhs[3:] += R[:, 3:].ravel()

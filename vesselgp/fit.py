@@ -42,7 +42,7 @@ import scipy.sparse.linalg as spla
 from . import tolerances as tol
 from ._arrays import thinned
 from ._validate import as_mesh, as_vector
-from .axis import (Axis, AxisStack, checked_solution, circle_fit_correction, circle_fit_sums, hat, interp_frames,
+from .axis import (Axis, AxisStack, checked_solution, circle_fit_solve, circle_fit_sums, hat, interp_frames,
                    local_coords, solve_banded_spd)
 from .curves import chord_length, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError
@@ -149,13 +149,18 @@ class GeneralizedCylinder:
 # ----------------------------------------------------------------------------- radius and weights
 
 
-def _radius_fit(s, rho, w, K, mu, sums=None):
+def _radius_fit(s, rho, w, K, mu):
     """Eq. 4: r(s) minimising sum w (r(s_i) - rho_i)^2 + mu * int r'^2, hat functions in s.
 
     The normal matrix of hat functions is tridiagonal: it is assembled with
-    ``bincount`` (:func:`_radius_sums`, or ``sums`` when given) and solved by banded Cholesky.
+    ``bincount`` (:func:`_radius_sums`) and solved by banded Cholesky (:func:`_radius_solve`).
     """
-    diag, off, rhs = _radius_sums(s, rho, w, K) if sums is None else sums
+    return _radius_solve(*_radius_sums(s, rho, w, K), mu)
+
+
+def _radius_solve(diag, off, rhs, mu):
+    """Eq. 4's tridiagonal system from its data sums (:func:`_radius_sums`) and ``mu``, solved: (K,)."""
+    K = len(diag)
     Wbar = float(diag.mean())
     reg = mu * Wbar
     d1 = np.full(K, 2.0 * reg)
@@ -166,12 +171,12 @@ def _radius_fit(s, rho, w, K, mu, sums=None):
     return solve_banded_spd(ab, rhs)
 
 
-def _radius_sums(s, rho, w, K, nodeoff=0, total=None):
+def _radius_sums(s, rho, w, K, nodeoff=None, total=None):
     """The normal matrix's diagonal (N,), off-diagonal (N - 1,) and right-hand side (N,) of Eq. 4's
     data term, ``N = K``; for several axes, per-row ``K`` and ``nodeoff`` and the node ``total``
     (as :func:`vesselgp.axis.circle_fit_sums`)."""
     j, t = hat(s, K)
-    if not (np.isscalar(nodeoff) and nodeoff == 0):
+    if nodeoff is not None:
         j = j + nodeoff
     N = K if total is None else total
     a, b = w * (1 - t), w * t
@@ -649,7 +654,7 @@ class _ProblemStack:
         self.nodeoff = np.concatenate([[0], np.cumsum(K)[:-1]])
         if len(problems) == 1:
             self.PT = np.ascontiguousarray(problems[0].Vs.T)
-            self.K, self.rscale, self.rowoff, self.total = int(K[0]), problems[0].rscale, 0, None
+            self.K, self.rscale, self.rowoff, self.total = int(K[0]), problems[0].rscale, None, None
         else:
             self.PT = np.ascontiguousarray(np.concatenate([p.Vs for p in problems]).T)
             self.K = np.repeat(K, counts)
@@ -683,10 +688,9 @@ def _iterate(stack, its, windows, lam, mu):
     out = []
     for b, (it, p, r) in enumerate(zip(its, probs, stack.slices)):
         K, o = len(it.nodes), int(stack.nodeoff[b])
-        corr = circle_fit_correction(axes[b].node_frames(), it.nodes, None, None, None, lam, p.rscale,
-                                     sums=tuple(x[o:o + K - 1] for x in circle))
-        radii = _radius_fit(None, None, None, K, mu, sums=(radius[0][o:o + K], radius[1][o:o + K - 1],
-                                                           radius[2][o:o + K]))
+        corr = circle_fit_solve(axes[b].node_frames(), it.nodes, circle[0][o:o + K - 1], circle[1][o:o + K - 1],
+                                lam, p.rscale)
+        radii = _radius_solve(radius[0][o:o + K], radius[1][o:o + K - 1], radius[2][o:o + K], mu)
         out.append(_advance(it, axes[b], corr, radii, s[r], w[r], jac[r], inside[b], p.rscale))
     return out
 

@@ -150,8 +150,8 @@ def _bands(V, area, phi, K0):
 
 
 def _branch_problem(V, area, rd, idx, caps, start, end):
-    """The Eq. 3 / Eq. 5 fixed point of one branch's vertices, initialised on bands of root distance,
-    and its radius scale.
+    """The Eq. 3 / Eq. 5 fixed point (:class:`FitProblem`) of one branch's vertices, initialised on
+    bands of root distance.
 
     ``start`` / ``end`` are the end centres to pin the initial axis to (the
     root's and a tip's), or None at a junction side.
