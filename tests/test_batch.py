@@ -223,3 +223,40 @@ def test_a_dead_worker_is_a_failed_row_and_the_batch_goes_on(cohort, tmp_path):
     assert rows["m3.ply"]["status"] == "error" and rows["m3.ply"]["error_type"] == "KilledWorker"
     assert all(r["status"] == "ok" for k, r in rows.items() if k.startswith("m") and k != "m3.ply")
     assert len(rep.rows) == 12 and rep.failed == 3  # the dead worker's row and the two corrupt files
+
+
+class _LostThenFinished:
+    """A Dask future whose finished result is lost with its worker, then computed again."""
+
+    def __init__(self, statuses, value):
+        self._statuses, self._value, self.key = list(statuses), value, "k"
+
+    @property
+    def status(self):
+        return self._statuses.pop(0) if len(self._statuses) > 1 else self._statuses[0]
+
+    def done(self):  # the race seen on CI: done() was True, the status read after it was "lost"
+        return True
+
+    def result(self):
+        return self._value
+
+
+class _FakeClient:
+    def __init__(self, future):
+        self.future = future
+
+    def submit(self, *args, **kwargs):
+        return self.future
+
+
+def test_a_result_lost_with_its_worker_is_waited_for_not_failed(monkeypatch):
+    """A finished row whose worker dies before the result is fetched ("lost") stays pending until Dask has
+    computed it again; it is not a failed row."""
+    monkeypatch.setattr(vg.tolerances, "BATCH_POLL_S", 0.0)
+    row = {"key": "r", "inputs": ["x.ply"]}
+    rec = {"status": "ok"}
+    saved = []
+    fut = _LostThenFinished(["lost", "pending", "finished"], rec)
+    batch._on_dask(_FakeClient(fut), [row], lambda r, x: saved.append(x), None, None)
+    assert saved == [rec]

@@ -277,6 +277,9 @@ def _input_bytes(row):
     return sum(Path(p).stat().st_size for p in row["inputs"] if Path(p).is_file())
 
 
+_FINAL = ("finished", "error", "cancelled")  # a Dask future's end states ("lost" is not one)
+
+
 def _on_dask(client, todo, save, bar, timeout):
     """Submit every row, collect them as they finish; a task past ``timeout`` s of running is failed."""
     # largest inputs first (Dask runs higher priorities first): the last rows to finish are then short
@@ -285,15 +288,11 @@ def _on_dask(client, todo, save, bar, timeout):
                row for row in todo}
     pending, started, last_look = set(futures), {}, -math.inf
     while pending:
-        finished = [f for f in pending if f.done()]
-        for f in finished:
-            row = futures[f]
-            if f.status == "finished":
-                save(row, f.result())
-            else:  # the task raised outside run_row, or its worker died (KilledWorker), or it was cancelled
-                exc = f.exception() if f.status == "error" else None
-                save(row, _failure(row, type(exc).__name__ if exc else f.status,
-                                   " ".join(str(exc).split()) if exc else f"task {f.status}"))
+        # a future's status is read once: a finished task whose worker then dies is "lost" (its result
+        # went with the worker) and Dask computes it again, so it stays pending, not a failed row
+        finished = [(f, status) for f in pending if (status := f.status) in _FINAL]
+        for f, status in finished:
+            save(futures[f], _outcome(futures[f], f, status))
             pending.discard(f)
             if bar is not None:
                 bar.update(1)
@@ -311,6 +310,22 @@ def _on_dask(client, todo, save, bar, timeout):
                     bar.update(1)
         if not finished:
             time.sleep(tol.BATCH_POLL_S)
+
+
+def _outcome(row, future, status):
+    """A row's record from its finished future (``status`` one of ``_FINAL``), a failure record if it failed.
+
+    The task raised outside ``run_row``, its worker died (``KilledWorker``) or it was cancelled: each is
+    a failed row (``run_row`` itself returns a ``VesselError`` as a record). A result lost after the
+    status was read is computed again by Dask, and ``result()`` waits for it; if that run fails, so
+    does the row.
+    """
+    if status == "cancelled":
+        return _failure(row, "cancelled", "task cancelled")
+    try:
+        return future.result()
+    except Exception as exc:  # the worker's exception, re-raised here by Dask: the row failed
+        return _failure(row, type(exc).__name__, " ".join(str(exc).split()))
 
 
 def _executing(dask_worker):
