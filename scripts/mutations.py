@@ -176,6 +176,18 @@ MUTATIONS = {
         "    predicted = 0.0 if frozen else step",
         ["tests/test_fit.py", "tests/test_truth.py", "tests/test_tree.py"],
     ),
+    "wall_areas_of_every_face": (
+        "vesselgp/fit.py",
+        "        wall = pool.submit(voronoi_areas, V, Fg)",
+        "        wall = pool.submit(voronoi_areas, V, F)",
+        ["tests/test_robustness.py"],
+    ),
+    "checked_mesh_faces_unchecked": (
+        "vesselgp/fit.py",
+        "        return CheckedMesh(topo, *faces.result())",
+        "        return CheckedMesh(topo, F, float(np.median(igl.edge_lengths(V, F))))",
+        ["tests/test_robustness.py"],
+    ),
     "voronoi_areas_chunks_overwrite": (
         "vesselgp/mesh/_geometry.py",
         "            q[:, a:a + len(Fc)] = _corner_voronoi(V, Fc)",

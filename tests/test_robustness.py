@@ -245,6 +245,18 @@ def test_zero_area_face_is_ignored_by_the_fit(tube, tube_fit):
     assert np.all(np.isfinite(fit_generalized_cylinder(V2, F2).centers))
 
 
+def test_faces_with_a_zero_length_edge_are_left_out_of_the_areas(tube, tube_fit):
+    """Two distinct vertices at one position (an unmerged seam point): the two faces across their
+    edge have a zero-length edge, and their corners no Voronoi area (NaN in libigl's formula). The
+    fit leaves them out of the wall's areas and matches the clean tube's fit."""
+    V = tube.V.copy()
+    f = tube.F[100]
+    V[f[1]] = V[f[0]]  # f[1] moves onto f[0]
+    gc = fit_generalized_cylinder(V, tube.F)
+    assert np.all(np.isfinite(gc.vertex_area)) and np.all(gc.vertex_area >= 0)
+    assert_same_fit(gc, tube_fit, rtol=3e-2)
+
+
 def test_vertex_only_in_zero_area_faces(tube):
     """A vertex whose only faces all have zero area has no area weight: clear error."""
     V = np.vstack([tube.V, tube.V[0] + 0.5 * (tube.V[1] - tube.V[0])])  # on the rim edge 0-1

@@ -27,6 +27,12 @@ fixed points directly, with three changes a geometry-processing user expects:
 Vertices that are not on the tubular wall (cap faces, side branches, the far
 side of a bifurcation) are removed from the data by robust reweighting against
 the fitted radius.
+
+Two independent, mostly numpy steps of a fit run on a second thread: the faces' area and
+edge checks beside the topology (:func:`checked_mesh`), the wall's Voronoi areas beside the
+end detection. numpy lets go of the GIL on large arrays, so on a 1M-vertex mesh about 0.2-0.3 s
+of the fit overlap; on small meshes the thread costs well under a millisecond. Each call waits
+for its thread before it returns or raises, and the results are the same numbers either way.
 """
 from __future__ import annotations
 
