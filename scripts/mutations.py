@@ -176,17 +176,35 @@ MUTATIONS = {
         "    predicted = 0.0 if frozen else step",
         ["tests/test_fit.py", "tests/test_truth.py", "tests/test_tree.py"],
     ),
-    "wall_areas_of_every_face": (
+    "wall_areas_of_every_face_threaded": (
         "vesselgp/fit.py",
         "        wall = pool.submit(voronoi_areas, V, Fg)",
         "        wall = pool.submit(voronoi_areas, V, F)",
         ["tests/test_robustness.py"],
     ),
+    "wall_areas_of_every_face": (
+        "vesselgp/fit.py",
+        "        return (*found, voronoi_areas(V, Fg))",
+        "        return (*found, voronoi_areas(V, F))",
+        ["tests/test_robustness.py"],
+    ),
     "checked_mesh_faces_unchecked": (
         "vesselgp/fit.py",
-        "        return CheckedMesh(topo, *faces.result())",
-        "        return CheckedMesh(topo, F, float(np.median(igl.edge_lengths(V, F))))",
+        "    return CheckedMesh(topo, *_nondegenerate_faces(V, F))",
+        "    return CheckedMesh(topo, F, float(np.median(igl.edge_lengths(V, F))))",
         ["tests/test_robustness.py"],
+    ),
+    "edge_lengths_chunk_overwrite": (
+        "vesselgp/mesh/topology.py",
+        '            np.sqrt(np.einsum("ij,ij->i", d, d), out=out[a:a + len(Ec)])',
+        '            np.sqrt(np.einsum("ij,ij->i", d, d), out=out[:len(Ec)])',
+        ["tests/test_topology.py", "tests/test_mesh.py", "tests/test_ends_trees.py"],
+    ),
+    "cap_dihedral_chunk_overwrite": (
+        "vesselgp/mesh/_ends_caps.py",
+        '        np.einsum("ij,ij->i", N32.take(fa, axis=0), N32.take(ga, axis=0), out=cos[a:a + len(fa)])',
+        '        np.einsum("ij,ij->i", N32.take(fa, axis=0), N32.take(ga, axis=0), out=cos[:len(fa)])',
+        ["tests/test_mesh.py", "tests/test_ends_trees.py"],
     ),
     "voronoi_areas_chunks_overwrite": (
         "vesselgp/mesh/_geometry.py",

@@ -289,6 +289,20 @@ def test_real_bifurcation_needs_chosen_ends_and_follows_each_path():
         assert gc.radii[:3].mean() > 1.3 * gc.radii[-3:].mean()
 
 
+def test_areas_on_a_second_thread_give_the_same_fit_and_the_ends_errors(monkeypatch):
+    """Large meshes compute the wall's areas on a thread beside the end detection: the same fit bit
+    for bit (the real Y, a path between two of its three ends), and an error of the ends still
+    reaches the caller (the thread is waited for)."""
+    V, F = vesselgp.read_mesh(REAL / "vmtk_abdominal_aorta_iliac_bifurcation_open.stl")
+    serial = fit_generalized_cylinder(V, F, ends=(0, 1))
+    monkeypatch.setattr(vesselgp.tolerances, "THREAD_MIN_VERTICES", 0)
+    threaded = fit_generalized_cylinder(V, F, ends=(0, 1))
+    for name in ("centers", "radii", "frames", "vertex_s", "vertex_theta", "vertex_area"):
+        assert np.array_equal(getattr(serial, name), getattr(threaded, name), equal_nan=True), name
+    with pytest.raises(vesselgp.EndsError, match="ends=\\(i, j\\)"):
+        fit_generalized_cylinder(V, F)
+
+
 def test_coarse_harmonic_from_the_unique_edges_is_the_one_from_the_faces(monkeypatch):
     """The coarse harmonic initialisation joins its cells along the mesh's edges: read once each
     (the topology's edge list) or as the faces' corners (each interior edge twice), the cell graph

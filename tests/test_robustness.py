@@ -41,6 +41,7 @@ from vesselgp import (
     vessel_ends,
     write_mesh,
 )
+from vesselgp import tolerances as tol
 from vesselgp.synthetic import deform_synthetic, named_curve, paper_case, synthetic_vessel
 from _data import REAL
 
@@ -245,10 +246,14 @@ def test_zero_area_face_is_ignored_by_the_fit(tube, tube_fit):
     assert np.all(np.isfinite(fit_generalized_cylinder(V2, F2).centers))
 
 
-def test_faces_with_a_zero_length_edge_are_left_out_of_the_areas(tube, tube_fit):
+@pytest.mark.parametrize("threaded", [False, True])
+def test_faces_with_a_zero_length_edge_are_left_out_of_the_areas(tube, tube_fit, threaded, monkeypatch):
     """Two distinct vertices at one position (an unmerged seam point): the two faces across their
     edge have a zero-length edge, and their corners no Voronoi area (NaN in libigl's formula). The
-    fit leaves them out of the wall's areas and matches the clean tube's fit."""
+    fit leaves them out of the wall's areas and matches the clean tube's fit (with the areas
+    computed beside the ends on a second thread, as on large meshes, or not)."""
+    if threaded:
+        monkeypatch.setattr(tol, "THREAD_MIN_VERTICES", 0)
     V = tube.V.copy()
     f = tube.F[100]
     V[f[1]] = V[f[0]]  # f[1] moves onto f[0]

@@ -28,11 +28,11 @@ Vertices that are not on the tubular wall (cap faces, side branches, the far
 side of a bifurcation) are removed from the data by robust reweighting against
 the fitted radius.
 
-Two independent, mostly numpy steps of a fit run on a second thread: the faces' area and
-edge checks beside the topology (:func:`checked_mesh`), the wall's Voronoi areas beside the
-end detection. numpy lets go of the GIL on large arrays, so on a 1M-vertex mesh about 0.2-0.3 s
-of the fit overlap; on small meshes the thread costs well under a millisecond. Each call waits
-for its thread before it returns or raises, and the results are the same numbers either way.
+On meshes of ``tolerances.THREAD_MIN_VERTICES`` vertices or more, the wall's Voronoi areas
+are computed on a second thread beside the end detection: both are mostly numpy, which lets
+go of the GIL on large arrays, so on a 1M-vertex mesh about 0.2 s of the fit overlap. The fit
+waits for its thread before it returns or raises, and the results are the same numbers either
+way.
 """
 from __future__ import annotations
 
@@ -232,10 +232,15 @@ def _resolve_ends(V, F, ends, topo, mesh_ends=None):
 def _ends_and_areas(V, F, Fg, ends, topo, mesh_ends):
     """:func:`_resolve_ends` and the wall's Voronoi areas (of the faces with an area, ``Fg``).
 
-    The areas are computed on a second thread while the ends are found: both are mostly
-    numpy, which lets go of the GIL on large arrays (a 1M fit: the areas' 0.2 s hidden).
-    Leaving the block waits for the thread, also when the ends raise.
+    From ``tolerances.THREAD_MIN_VERTICES`` vertices on, the areas are computed on a second
+    thread while the ends are found: both are mostly numpy, which lets go of the GIL on large
+    arrays (a 1M fit: the areas' 0.2 s hidden). Leaving the block waits for the thread, also
+    when the ends raise. On smaller meshes the gain is a few per cent and the two steps'
+    temporaries, alive at once, would raise the peak memory per vertex.
     """
+    if len(V) < tol.THREAD_MIN_VERTICES:
+        found = _resolve_ends(V, F, ends, topo, mesh_ends)
+        return (*found, voronoi_areas(V, Fg))
     with ThreadPoolExecutor(1, thread_name_prefix="vesselgp-areas") as pool:
         wall = pool.submit(voronoi_areas, V, Fg)
         found = _resolve_ends(V, F, ends, topo, mesh_ends)
@@ -810,19 +815,11 @@ def checked_mesh(V, F):
     InvalidMeshError
         Unreferenced vertices, several connected components, or vertices used only
         by zero-area faces.
-
-    Notes
-    -----
-    The faces' areas and edge lengths are measured on a second thread while the
-    topology is built (numpy lets go of the GIL on large arrays: 30-40 ms of
-    0.6 s at 1M vertices); the call returns once both are done.
     """
     _check_used(V, F)
-    with ThreadPoolExecutor(1, thread_name_prefix="vesselgp-faces") as pool:
-        faces = pool.submit(_nondegenerate_faces, V, F)
-        topo = mesh_topology(F, len(V))
-        _check_connected(topo)
-        return CheckedMesh(topo, *faces.result())
+    topo = mesh_topology(F, len(V))
+    _check_connected(topo)
+    return CheckedMesh(topo, *_nondegenerate_faces(V, F))
 
 
 def _check_used(V, F):

@@ -89,9 +89,17 @@ WINDING_BLOCK_PAIRS = 24_000
 #: k-d tree candidates cost about 0.6 KB a row, so this bounds them to about 20 MB whatever
 #: the mesh size (peak memory, issue #16).
 AXIS_ROW_CHUNK = 32768
-#: Faces whose Voronoi areas libigl computes at a time (its mass-matrix triplets and copies
-#: cost about 0.4 KB a vertex when built for the whole mesh at once).
-AREA_FACE_CHUNK = 65536
+#: Faces whose Voronoi areas are computed at a time: the corner shares' temporaries cost about
+#: 360 B a face, so about 6 MB (65536 faces: 24 MB, 0.28 KB a vertex at the peak of a 100k-vertex
+#: fit; 16384 is also 15 % faster, the blocks staying nearer the cache).
+AREA_FACE_CHUNK = 16384
+#: From this many vertices on, a fit computes the wall's Voronoi areas on a second thread while
+#: it finds the ends (0.2 s of a 1M fit hidden); below, the gain is a few per cent and the two
+#: steps' temporaries alive at once would raise the peak memory per vertex.
+THREAD_MIN_VERTICES = 300_000
+#: Edges whose lengths are measured at a time (their gathered endpoint differences are bounded
+#: to a few MB whatever the mesh size: peak memory, issue #16).
+EDGE_CHUNK = 65536
 #: Above this many vertices the harmonic initialisation runs on a vertex-clustered copy.
 GC_COARSE_INIT_VERTICES = 15000
 #: About this many cells in that copy (it seeds the fit only: 5000 instead of 15000 cells moves
