@@ -196,20 +196,20 @@ MUTATIONS = {
     ),
     "edge_lengths_chunk_overwrite": (
         "vesselgp/mesh/topology.py",
-        '            np.sqrt(np.einsum("ij,ij->i", d, d), out=out[a:a + len(Ec)])',
-        '            np.sqrt(np.einsum("ij,ij->i", d, d), out=out[:len(Ec)])',
+        '            np.sqrt(np.einsum("ij,ij->i", d, d), out=out[c])',
+        '            np.sqrt(np.einsum("ij,ij->i", d, d), out=out[:c.stop - c.start])',
         ["tests/test_topology.py", "tests/test_mesh.py", "tests/test_ends_trees.py"],
     ),
     "cap_dihedral_chunk_overwrite": (
         "vesselgp/mesh/_ends_caps.py",
-        '        np.einsum("ij,ij->i", N32.take(fa, axis=0), N32.take(ga, axis=0), out=cos[a:a + len(fa)])',
-        '        np.einsum("ij,ij->i", N32.take(fa, axis=0), N32.take(ga, axis=0), out=cos[:len(fa)])',
+        '        np.einsum("ij,ij->i", N32.take(f[c], axis=0), N32.take(g[c], axis=0), out=cos[c])',
+        '        np.einsum("ij,ij->i", N32.take(f[c], axis=0), N32.take(g[c], axis=0), out=cos[:c.stop - c.start])',
         ["tests/test_mesh.py", "tests/test_ends_trees.py"],
     ),
     "voronoi_areas_chunks_overwrite": (
         "vesselgp/mesh/_geometry.py",
-        "            q[:, a:a + len(Fc)] = _corner_voronoi(V, Fc)",
-        "            q[:, :len(Fc)] = _corner_voronoi(V, Fc)",
+        "            q[:, c] = _corner_voronoi(V, F[c])",
+        "            q[:, :c.stop - c.start] = _corner_voronoi(V, F[c])",
         ["tests/test_mesh.py"],
     ),
     "projection_chunks_share_the_first_start": (

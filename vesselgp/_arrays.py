@@ -50,6 +50,19 @@ def unique_rows(A, return_index=False, return_inverse=False, return_counts=False
     return tuple(out) if len(out) > 1 else rows
 
 
+def chunks(n, size):
+    """Slices of at most ``size`` consecutive indices covering ``range(n)`` (one empty slice for n = 0).
+
+    The blocks that bound a large computation's temporaries (issue #16's peak memory).
+
+    Examples
+    --------
+    >>> chunks(5, 2)
+    [slice(0, 2, None), slice(2, 4, None), slice(4, 5, None)]
+    """
+    return [slice(a, min(a + size, n)) for a in range(0, n, size)] or [slice(0, 0)]
+
+
 def thinned(n, most):
     """Evenly thinned subset (a slice) of ``range(n)`` with at most about ``most`` entries.
 

@@ -20,6 +20,7 @@ from scipy.linalg.lapack import dpbsv as _pbsv
 from scipy.spatial import cKDTree
 
 from . import tolerances as tol
+from ._arrays import chunks
 from .curves import chord_length, resample_arclength, rotation_minimizing_frames
 from .errors import NotTubularError
 from .rotations import perpendicular
@@ -359,8 +360,7 @@ def _uniform_gradient(X, h):
 
 def _row_chunks(n):
     """Slices of at most ``tolerances.AXIS_ROW_CHUNK`` consecutive rows covering ``range(n)``."""
-    step = tol.AXIS_ROW_CHUNK
-    return [slice(a, min(a + step, n)) for a in range(0, n, step)] or [slice(0, 0)]
+    return chunks(n, tol.AXIS_ROW_CHUNK)
 
 
 def _carried_frames(carry, T):

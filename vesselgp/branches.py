@@ -28,7 +28,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import tolerances as tol
 from ._validate import as_mesh
 from .errors import EndsError
 from .mesh.geodesic import GeodesicDistances

@@ -49,7 +49,7 @@ import scipy.sparse.linalg as spla
 from . import tolerances as tol
 from ._arrays import thinned
 from ._validate import as_mesh, as_vector
-from .axis import (Axis, AxisStack, checked_solution, circle_fit_solve, circle_fit_sums, hat, interp_frames,
+from .axis import (Axis, AxisStack, circle_fit_solve, circle_fit_sums, hat, interp_frames,
                    local_coords, solve_banded_spd)
 from .curves import chord_length, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError

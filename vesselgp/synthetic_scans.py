@@ -34,7 +34,7 @@ from scipy.spatial.transform import Rotation
 from . import tolerances as tol
 from .errors import OptionError
 from .rotations import perpendicular, rotate
-from .synthetic_tree import SyntheticTree, _arclength_table, _bezier, _coefficients, _eval, tree_surface
+from .synthetic_tree import SyntheticTree, _bezier, _coefficients, _eval, tree_surface
 
 __all__ = ["ScanPair", "twist_pair"]
 

@@ -44,7 +44,7 @@ from .axis import Axis
 from .branches import branch_decomposition, root_end
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
-from .fit import (GeneralizedCylinder, check_cylinder_bend, checked_mesh, cylinder_from_axis,
+from .fit import (check_cylinder_bend, checked_mesh, cylinder_from_axis,
                   FitProblem, fit_generalized_cylinder, fixed_points)
 from .inside import SurfaceWinding, check_axis_inside
 from .mesh import vessel_ends

@@ -37,6 +37,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, dijkstra
 
 from .. import tolerances as tol
+from .._arrays import chunks
 from .topology import MeshTopology
 
 __all__ = ["find_caps"]
@@ -112,9 +113,8 @@ def _patches(topo, N):
     f, g = topo.edge_faces.take(inner, axis=0).T
     N32 = N.astype(np.float32)  # (half the memory traffic of the gathers; ample for the test)
     cos = np.empty(len(inner), np.float32)  # coherent mesh: normals agree in sense
-    for a in range(0, len(inner), tol.EDGE_CHUNK):  # the gathered normals a few MB at a time
-        fa, ga = f[a:a + tol.EDGE_CHUNK], g[a:a + tol.EDGE_CHUNK]
-        np.einsum("ij,ij->i", N32.take(fa, axis=0), N32.take(ga, axis=0), out=cos[a:a + len(fa)])
+    for c in chunks(len(inner), tol.EDGE_CHUNK):  # the gathered normals a few MB at a time
+        np.einsum("ij,ij->i", N32.take(f[c], axis=0), N32.take(g[c], axis=0), out=cos[c])
     is_sharp = cos < np.cos(tol.SHARP_EDGE_ANGLE)
     if not is_sharp.any():
         return None

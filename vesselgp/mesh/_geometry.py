@@ -5,6 +5,7 @@ import igl
 import numpy as np
 
 from .. import tolerances as tol
+from .._arrays import chunks
 
 
 def face_vectors(V, F):
@@ -28,9 +29,8 @@ def voronoi_areas(V, F):
     m = len(F)
     q = np.empty((3, m))
     with np.errstate(divide="ignore", invalid="ignore"):  # NaN for faces without area, as libigl
-        for a in range(0, m, tol.AREA_FACE_CHUNK):
-            Fc = F[a:a + tol.AREA_FACE_CHUNK]
-            q[:, a:a + len(Fc)] = _corner_voronoi(V, Fc)
+        for c in chunks(m, tol.AREA_FACE_CHUNK):
+            q[:, c] = _corner_voronoi(V, F[c])
     return np.bincount(F.T.ravel(), weights=q.ravel(), minlength=len(V))
 
 

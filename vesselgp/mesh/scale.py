@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
+import numpy as np  # noqa: F401 (the doctests use it)
 
 from .. import tolerances as tol
 from .._validate import as_mesh
