@@ -113,6 +113,21 @@ def test_a_given_topology_gives_the_same_distances_and_a_wrong_one_is_refused():
         GeodesicDistances(V, np.roll(F, 1, axis=0), topo)
 
 
+def test_given_areas_give_the_same_distances_and_a_wrong_shape_is_refused():
+    """A fit passes the wall's Voronoi areas it has already: the closed mesh's mass matrix is them
+    plus the fans' shares, the same distances as computing it whole; areas of another mesh are refused."""
+    from vesselgp.mesh._geometry import voronoi_areas
+    ves = synthetic_vessel("arc", radius=1.0)  # open at both ends: two fans
+    V, F = ves.V, ves.F
+    a, b = GeodesicDistances(V, F), GeodesicDistances(V, F, areas=voronoi_areas(V, F))
+    ring = np.flatnonzero(V[:, 2] == V[:, 2].min())
+    np.testing.assert_allclose(b(ring), a(ring), rtol=0, atol=1e-12 * np.ptp(a(ring)))
+    c = GeodesicDistances(V, F, areas=2.0 * voronoi_areas(V, F))  # a wrong mass matrix is felt
+    assert np.abs(c(ring) - a(ring)).max() > 1e-6 * np.ptp(a(ring))
+    with pytest.raises(OptionError, match="one entry per vertex"):
+        GeodesicDistances(V, F, areas=np.ones(len(V) - 1))
+
+
 def test_a_checked_mesh_shares_its_topology_only_when_no_face_was_dropped():
     from vesselgp.fit import checked_mesh
     ves = synthetic_vessel("arc", radius=1.0)

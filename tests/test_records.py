@@ -67,6 +67,27 @@ def test_projection_keeps_a_point_on_its_own_stretch_of_axis():
     assert abs(s[0] - 5.0 / L) < 0.005
 
 
+def test_windowed_projection_is_the_nearest_sample_in_each_window():
+    """Without Newton steps a windowed projection is, for every point, the dense sample nearest to it
+    among those within the window of its previous parameter: brute force over all samples. Points near
+    both legs of a hairpin, started on their own leg (their nearest sample is in the window), on the
+    other leg (it is not: the k nearest, then the whole window, are tried) and in the bend."""
+    ax = Axis(_hairpin())
+    rng = np.random.default_rng(11)
+    s_true = rng.uniform(0.0, 1.0, 600)
+    pts, fr = ax.at(s_true)
+    P = pts + 0.3 * (fr[:, 1] * rng.normal(size=(600, 1)) + fr[:, 2] * rng.normal(size=(600, 1)))
+    start = s_true.copy()
+    start[:200] = 1.0 - s_true[:200]  # the other leg, at the same x
+    start[200:300] = rng.uniform(0, 1, 100)
+    window = 0.05
+    s = ax.project(P, start, window=window, newton_steps=0)
+    d2 = ((P[:, None, :] - ax.points[None]) ** 2).sum(axis=2)
+    d2[np.abs(ax.s[None] - start[:, None]) > window] = np.inf
+    np.testing.assert_array_equal(s, ax.s[np.argmin(d2, axis=1)])
+    assert np.any(np.abs(s[:200] - s_true[:200]) > 0.3)  # some were held on the other leg by the window
+
+
 def test_grid_scan_is_recorded_and_finds_the_true_minimum():
     """A problem whose energy is not convex near the zero-twist angle: the search scans a full turn,
     says so, and still finds the minimum of the (known) energy."""

@@ -243,16 +243,27 @@ class Axis:
         if window is None:
             s = s_prev.copy()
         else:
-            kq = min(8, len(self.s))
-            dist, idx = self._tree.query(P, k=kq)
-            sc = self.s[idx]
-            d = np.where(np.abs(sc - s_prev[:, None]) > window, np.inf, dist)
-            best = np.argmin(d, axis=1)
-            s = sc[np.arange(len(P)), best]
-            none = np.flatnonzero(~np.isfinite(d[np.arange(len(P)), best]))
-            if none.size:
-                s[none] = self._nearest_in_window(P[none], s_prev[none], window)
+            # the nearest sample wins when it lies in the window (nearly every point of a tube); only
+            # the rest query their k nearest, then every sample of the window (k = 1 costs 0.6x k = 8)
+            s = self.s[self._tree.query(P, k=1)[1]]
+            far = np.flatnonzero(np.abs(s - s_prev) > window)
+            if far.size:
+                s[far] = self._nearest_candidates(P[far], s_prev[far], window)
         return _newton(self.table, np.ascontiguousarray(P.T) if steps else None, s, self.length, steps)
+
+    def _nearest_candidates(self, P, s_prev, window):
+        """Parameter of the nearest of the ``k`` nearest dense samples within ``window`` of ``s_prev``,
+        or of the whole window (:meth:`_nearest_in_window`) when none of them is in it."""
+        kq = min(tol.PROJECTION_CANDIDATES, len(self.s))
+        dist, idx = self._tree.query(P, k=kq)
+        sc = self.s[idx.reshape(len(P), kq)]
+        d = np.where(np.abs(sc - s_prev[:, None]) > window, np.inf, dist.reshape(len(P), kq))
+        best = np.argmin(d, axis=1)
+        s = sc[np.arange(len(P)), best]
+        none = np.flatnonzero(~np.isfinite(d[np.arange(len(P)), best]))
+        if none.size:
+            s[none] = self._nearest_in_window(P[none], s_prev[none], window)
+        return s
 
 
 def _nearest_sample(s, m1):

@@ -247,13 +247,13 @@ def _ends_and_areas(V, F, Fg, ends, topo, mesh_ends):
         return (*found, wall.result())
 
 
-def _path_mask(V, F, e0, e1, rscale, geodesics=None, topology=None):
+def _path_mask(V, F, e0, e1, rscale, geodesics=None, topology=None, areas=None):
     """Vertices on the path between the two ends (excess geodesic length <= ``BRANCH_PATH_RADII`` radii).
 
     Used when the mesh has other ends (branches): vertices deeper than about a
     radius into a side branch have d0 + d1 well above the shortest d0 + d1.
     """
-    geo = GeodesicDistances(V, F, topology) if geodesics is None else geodesics.check(V, F)
+    geo = GeodesicDistances(V, F, topology, areas=areas) if geodesics is None else geodesics.check(V, F)
     ex = geo.from_each([e0.vertices, e1.vertices]).sum(axis=1)
     ex -= np.min(ex)
     return ex <= tol.BRANCH_PATH_RADII * rscale
@@ -843,7 +843,7 @@ def _data_weights(V, Fg, wall_area, e0, e1, n_ends, rscale, geodesics=None, topo
             end_region[np.asarray(e.vertices, np.int64)] = True
     area = wall_area
     if n_ends > 2:
-        area = np.where(_path_mask(V, Fg, e0, e1, rscale, geodesics, topology), wall_area, 0.0)
+        area = np.where(_path_mask(V, Fg, e0, e1, rscale, geodesics, topology, wall_area), wall_area, 0.0)
     return area, end_region
 
 

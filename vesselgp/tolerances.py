@@ -78,6 +78,9 @@ GC_MIN_STRETCH = 0.1
 GC_AREA_RIDGE = 1e-6
 #: Ridge on Eq. 4's radius system (relative to the mean data weight).
 GC_RADIUS_RIDGE = 1e-9
+#: Nearest dense axis samples a windowed projection tries for a point whose very nearest
+#: sample lies outside its window (a vessel folded close to itself), before the whole window.
+PROJECTION_CANDIDATES = 8
 #: Entries of the distance block formed at a time when projecting points that have
 #: no candidate axis sample among their nearest ones (memory bound).
 PROJECTION_CHUNK = 4_000_000

@@ -384,10 +384,10 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                           vertex_branch=np.zeros(len(V), np.int64))
-    if geodesics is None:
-        geodesics = GeodesicDistances(V, Fg, checked.faces_topology)
-    br = branch_decomposition(V, Fg, ends, root, geodesics=geodesics)
     area = voronoi_areas(V, Fg)
+    if geodesics is None:
+        geodesics = GeodesicDistances(V, Fg, checked.faces_topology, areas=area)
+    br = branch_decomposition(V, Fg, ends, root, geodesics=geodesics)
     caps = np.zeros(len(V), bool)
     for e in ends:
         if e.kind != "open":

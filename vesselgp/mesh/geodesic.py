@@ -54,6 +54,10 @@ class GeodesicDistances:
     topology : MeshTopology, optional
         The :class:`vesselgp.mesh.topology.MeshTopology` of these ``F``, when already built;
         default built here.
+    areas : (n,) float64, optional
+        The Voronoi areas of ``V, F`` (:func:`vesselgp.mesh._geometry.voronoi_areas`), when a
+        fit has them already; default computed here. The closed mesh's mass matrix adds the
+        shares of the fans' faces to them (the areas are sums over faces).
 
     Raises
     ------
@@ -62,7 +66,7 @@ class GeodesicDistances:
         unreferenced vertex counts as one), or non-manifold or inconsistently oriented faces
         (boundary loops are then undefined).
     OptionError
-        A ``topology`` of other faces.
+        A ``topology`` of other faces, or ``areas`` not one per vertex.
 
     Examples
     --------
@@ -75,7 +79,7 @@ class GeodesicDistances:
     True
     """
 
-    def __init__(self, V, F, topology=None):
+    def __init__(self, V, F, topology=None, *, areas=None):
         self.shape = (len(V), len(F))  # the mesh it was built for (see :meth:`check`)
         topo = mesh_topology(F, len(V)) if topology is None else topology
         if topo.n_vertices != len(V) or not np.array_equal(topo.F, F):
@@ -89,12 +93,17 @@ class GeodesicDistances:
         h = float(topo.edge_lengths(V).mean())  # igl.avg_edge_length: the mean over the unique edges
         extent = 2.0 * float(np.sqrt(((V - V.mean(axis=0)) ** 2).sum(axis=1).max()))
         self.t = max(h * h, extent**2 / (4.0 * tol.GEODESIC_HEAT_DECAY))
+        if areas is not None and np.shape(areas) != (len(V),):
+            raise OptionError(f"areas must have one entry per vertex ({len(V)}), got shape {np.shape(areas)}")
         Vc, Fc = _closed(V, F, topo.boundary_loops)
+        mass = voronoi_areas(V, F) if areas is None else areas
+        if len(Vc) > len(V):  # the fans' faces (the last ones) add their shares
+            mass = np.concatenate([mass, np.zeros(len(Vc) - len(V))]) + voronoi_areas(Vc, Fc[len(F):])
         L = igl.cotmatrix(Vc, Fc)
         none = np.zeros(0, np.int64)
         no_eq = sp.csc_matrix((0, len(Vc)))
         self._heat = igl.min_quad_with_fixed_data()   # step 1: M - t L
-        igl.min_quad_with_fixed_precompute((sp.diags(voronoi_areas(Vc, Fc)) - self.t * L).tocsc(), none, no_eq,
+        igl.min_quad_with_fixed_precompute((sp.diags(mass) - self.t * L).tocsc(), none, no_eq,
                                            True, self._heat)
         self._poisson = igl.min_quad_with_fixed_data()  # step 3: -L, vertex 0 pinned
         igl.min_quad_with_fixed_precompute((-L).tocsc(), np.zeros(1, np.int64), no_eq, True, self._poisson)
