@@ -429,3 +429,32 @@ def test_a_kinked_fit_of_a_sparse_elliptical_section_raises_and_a_stiffer_axis_f
     inner = (gc.dense_s > 0.05) & (gc.dense_s < 0.95)
     d = polyline_distance(gc.dense_points[inner], ves.truth.centers)
     assert d.max() <= FACTOR * 0.0054, f"axis off by {d.max():.3%} of the radius"
+
+
+@pytest.mark.parametrize("free", ["first", "last"])
+def test_a_free_end_node_moves_onto_the_axis_and_a_pinned_one_stays(free):
+    """A tree branch's junction side is not pinned (Eq. 3's correction is solved there too).
+    Rings of a cylinder about the z axis, radius 1; the axis nodes on it but one end node 0.2
+    off in x. Free, that node comes back onto the z axis in a few circle-fit steps; pinned, it
+    stays where it was, and the other end stays in both cases."""
+    from vesselgp.axis import Axis, circle_fit_correction, local_coords
+
+    z = np.arange(0.0, 11.0 + 1e-9, 0.05)
+    th = np.linspace(0, 2 * np.pi, 48, endpoint=False)
+    P = np.stack([np.repeat(np.cos(th)[None], len(z), 0), np.repeat(np.sin(th)[None], len(z), 0),
+                  np.repeat(z[:, None], len(th), 1)], axis=-1).reshape(-1, 3)
+    k = 0 if free == "first" else -1
+    for pin in ((free == "last", free == "first"), True):
+        nodes = np.c_[np.zeros(12), np.zeros(12), np.linspace(0.0, 11.0, 12)]
+        nodes[k, 0] = 0.2
+        for _ in range(6):
+            ax = Axis(nodes)
+            s = np.clip(ax.project(P, P[:, 2] / 11.0, None, 3), 0, 1)
+            local, _ = local_coords(ax, P, s)
+            nodes = nodes + circle_fit_correction(ax.node_frames(), nodes, s, local, np.ones(len(P)), 1e-3, 1.0, pin)
+        if pin is True:
+            assert nodes[k, 0] == 0.2 and nodes[k, 1] == 0.0
+        else:
+            assert np.hypot(*nodes[k, :2]) < 1e-3, nodes[k]
+        assert np.hypot(*nodes[-1 - k, :2]) == 0.0  # the pinned end
+        assert np.abs(nodes[3:-3, :2]).max() < 0.01  # the middle, on the axis

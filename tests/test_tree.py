@@ -21,12 +21,12 @@ from _data import REAL
 
 # README "Vessel trees" table: worst and mean path-axis error (% of the true radius) away from
 # junctions (2 r) and tips (1.5 r), per tree; the tests assert 1.5 x these figures.
-README_AXIS = {"4 tips": (0.92, 0.037), "3 tips": (1.1, 0.035), "8 tips": (0.96, 0.038)}
-README_RADIUS_MAX = {"4 tips": 0.92, "3 tips": 0.45, "8 tips": 3.65}  # % worst radius error, same stretch
-README_JUNCTION = 0.27        # junction distance from the true one, in parent end radii
+README_AXIS = {"4 tips": (0.14, 0.0068), "3 tips": (0.15, 0.0070), "8 tips": (0.195, 0.0069)}
+README_RADIUS_MAX = {"4 tips": 0.92, "3 tips": 0.74, "8 tips": 4.0}  # % worst radius error, same stretch
+README_JUNCTION = 0.12        # junction distance from the true one, in parent end radii
 # README "segmentation-like tree" (Accuracy and speed): the voxel staircase of the 4-tip tree (voxel 0.4) smoothed by
 # clean_mesh(smooth=10); worst and worst mean path-axis error (% r), same stretch
-README_STAIRCASE_AXIS = (3.23, 0.74)
+README_STAIRCASE_AXIS = (3.22, 0.73)
 
 
 @pytest.fixture(scope="module", params=list(README_AXIS))
@@ -364,3 +364,22 @@ def test_branches_are_held_to_the_bend_limit_and_paths_may_turn_at_junctions(mon
     monkeypatch.setattr(tol, "GC_MAX_BEND", 0.02)
     with pytest.raises(vesselgp.NotTubularError, match="bends tighter than its radius"):
         fit_vessel_tree(t.V, t.F)
+
+
+def test_every_branch_of_a_finer_smoothed_staircase_converges(caplog):
+    """The benchmark's segmentation-like tree (voxel 0.366, about 27k vertices): with a hard cut at a
+    branch's free junction side, three vertices there went in and out of the data and that end node
+    cycled (1.5e-2 radii each way) to the iteration cap; tapered in, every fixed point converges
+    (and says nothing), and the paths keep to the true centre lines."""
+    t = synthetic_tree(levels=2, voxel=0.4 * np.sqrt(22_610 / 27_000), staircase=True)
+    V, F, _ = vesselgp.clean_mesh(t.V, t.F, smooth=10)
+    with caplog.at_level("WARNING", logger="vesselgp"):
+        tree = fit_vessel_tree(V, F)
+    assert all(b.converged and b.iterations < 20 for b in tree.branches), [b.iterations for b in tree.branches]
+    assert not [r for r in caplog.records if "did not converge" in r.getMessage()]
+    worst, mean = README_STAIRCASE_AXIS
+    for p in tree.paths:
+        d, r, _, _ = t.truth.nearest(p.dense_points)
+        keep = t.truth.interior_mask(p.dense_points)
+        err = 100 * d[keep] / r[keep]
+        assert err.max() <= 5.0 and err.mean() <= 1.0, (p.ends, err.max(), err.mean())

@@ -487,7 +487,11 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
 
 def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=True):
     """The regularised normal equations of :func:`circle_fit_correction` from its data sums
-    ``S`` (K - 1, 21) and ``R`` (K - 1, 6) (:func:`circle_fit_sums`), solved: (K, 3) corrections."""
+    ``S`` (K - 1, 21) and ``R`` (K - 1, 6) (:func:`circle_fit_sums`), solved: (K, 3) corrections.
+
+    ``pin_ends`` holds the end nodes where they are (no correction): a bool for both, or a pair
+    (first, last). A tree's branch pins only the ends that sit at a mesh end's centre; its
+    junction sides are free (:func:`vesselgp.fit.fixed_points`)."""
     K = len(centers)
     n3 = 3 * K
     rhs = np.zeros(n3)
@@ -516,12 +520,14 @@ def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=Tru
     cols += [3 * k1 + 2, 3 * k1 + 5, 3 * k1 + 2]
     vals += [np.full(K - 1, ed), np.full(K - 1, ed), np.full(K - 1, -ed)]
     rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
-    if pin_ends:
-        pinned = np.array([0, 1, 3 * (K - 1), 3 * (K - 1) + 1])
+    pin = (pin_ends, pin_ends) if isinstance(pin_ends, (bool, np.bool_)) else tuple(pin_ends)
+    if any(pin):  # the first and / or the last node's cx, cy held at 0
+        pinned = np.array(([0, 1] if pin[0] else []) + ([3 * (K - 1), 3 * (K - 1) + 1] if pin[1] else []),
+                          dtype=np.int64)
         is_pinned = np.zeros(n3, dtype=bool)
         is_pinned[pinned] = True
         keep = ~(is_pinned[rows] | is_pinned[cols])
-        rows, cols, vals = (np.concatenate([v[keep], e]) for v, e in zip((rows, cols, vals), (pinned, pinned, np.ones(4))))
+        rows, cols, vals = (np.concatenate([v[keep], e]) for v, e in zip((rows, cols, vals), (pinned, pinned, np.ones(len(pinned)))))
         rhs[pinned] = 0.0
     bw = int((rows - cols).max())
     ab = np.bincount((rows - cols) * n3 + cols, vals, minlength=(bw + 1) * n3).reshape(bw + 1, n3)

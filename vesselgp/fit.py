@@ -576,6 +576,11 @@ class FitProblem:
     length0 : float
         Length of the initial axis (sizes the first projection window).
     initial_normal : (3,) float64, optional
+    pin : (bool, bool)
+        Whether the first and the last node stay where they are (Eq. 3's correction held at
+        zero there): an end at a mesh end's centre. A free end (a tree branch's junction side,
+        first placed at a biased band centroid of the junction's bulge) moves with its data,
+        which are tapered in over its last segment (:func:`fixed_points`).
     """
 
     nodes: np.ndarray
@@ -586,6 +591,7 @@ class FitProblem:
     rscale: float
     length0: float
     initial_normal: np.ndarray | None = None
+    pin: tuple = (True, True)
 
 
 def fixed_point(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_iter, initial_normal=None,
@@ -706,6 +712,7 @@ def _iterate(stack, its, windows, lam, mu):
         # crossing an unpinned end would otherwise switch on and off and the fixed point cycle
         ins = it.inside if it.rejected is not None else (s_raw[r] > 0) & (s_raw[r] < 1) & ~p.ends_s
         w[r] = _robust_weights(s[r], local[r], jac[r], p.areas, it.radii, ins, it.rejected)
+        _taper_free_ends(w[r], s_raw[r], len(it.nodes) - 1, p.pin)
         inside.append(ins)
     circle = circle_fit_sums(s, local, w, stack.K, stack.rscale, stack.rowoff, stack.total)
     radius = _radius_sums(s, np.hypot(local[:, 1], local[:, 2]), w, stack.K, stack.rowoff, stack.total)
@@ -713,10 +720,24 @@ def _iterate(stack, its, windows, lam, mu):
     for b, (it, p, r) in enumerate(zip(its, probs, stack.slices)):
         K, o = len(it.nodes), int(stack.nodeoff[b])
         corr = circle_fit_solve(axes[b].node_frames(), it.nodes, circle[0][o:o + K - 1], circle[1][o:o + K - 1],
-                                lam, p.rscale)
+                                lam, p.rscale, p.pin)
         radii = _radius_solve(radius[0][o:o + K], radius[1][o:o + K - 1], radius[2][o:o + K], mu)
         out.append(_advance(it, axes[b], corr, radii, s[r], w[r], jac[r], inside[b], p.rscale))
     return out
+
+
+def _taper_free_ends(w, s_raw, segments, pin):
+    """Weights ``w`` (in place) ramped from 0 at a free (unpinned) end to 1 a segment in.
+
+    A vertex crossing a free end then enters or leaves the data with no weight: with a hard
+    cut, a few vertices at a junction side toggled in and out and the end node cycled, a
+    step of 1.5e-2 radii each way, or settled where the outlier set happened to be frozen
+    (a rigid motion moved a branch by 2e-3 radii instead of 1e-14).
+    """
+    if not pin[0]:
+        w *= np.clip(s_raw * segments, 0.0, 1.0)
+    if not pin[1]:
+        w *= np.clip((1.0 - s_raw) * segments, 0.0, 1.0)
 
 
 def _joined(arrays):

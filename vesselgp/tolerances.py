@@ -479,8 +479,9 @@ BRANCH_PATH_RADII = 2.0
 TREE_INIT_BANDS = 24
 #: A branch end's line (towards its junction) is the chord of its axis over this many radii ...
 TREE_JUNCTION_CHORD = 3.0
-#: ... starting this many radii from the end (the last stretch is bent by the junction's bulge).
-TREE_JUNCTION_SKIP = 1.5
+#: ... starting this many radii from the end (the last stretch is bent by the junction's bulge;
+#: 1.5 while the junction sides were pinned at a biased first node, which bent more of it).
+TREE_JUNCTION_SKIP = 0.5
 #: Weight (against the squared sines of the branch angles) pulling a junction towards the parent's
 #: axis end (keeps a shallow bifurcation, with nearly parallel lines, solvable).
 TREE_JUNCTION_ANCHOR = 0.02

@@ -176,7 +176,10 @@ def _branch_problem(V, area, rd, idx, caps, start, end):
     L0 = float(arc[-1])
     s0 = np.interp(phi, pv, arc / L0)
     K = int(np.clip(L0 / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
-    return FitProblem(resample_arclength(pts, K), s0, Vb, ab, caps, rscale, L0)
+    # only the ends at a mesh end's centre are pinned: a junction side starts at the band centroid of
+    # the junction's bulge and must move (pinned there, it bent the axis 1-4 % r out to 3 radii)
+    return FitProblem(resample_arclength(pts, K), s0, Vb, ab, caps, rscale, L0,
+                      pin=(start is not None, end is not None))
 
 
 # ----------------------------------------------------------------------------- junctions
