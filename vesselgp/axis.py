@@ -71,7 +71,8 @@ def _interp(table, s, frames=True, m1=None, segoff=None):
     j = np.minimum(x.astype(np.int64), m1 - 1)
     t = x - j
     u0 = table.shape[0] - 6  # U rows start here (after the optional curvature)
-    G = table.take(j if segoff is None else j + segoff, axis=1)
+    # without frames only the point, tangent and curvature rows are gathered
+    G = (table if frames else table[:u0]).take(j if segoff is None else j + segoff, axis=1)
     pts = G[0:3] + t * G[3:6]
     T = G[6:9] + t * G[9:12]
     T /= np.sqrt(_dot3(T, T))

@@ -92,10 +92,15 @@ def resample_arclength(P, k, *, with_tangents=False, oversample=16):
     >>> np.round(Q[:, 0], 9).tolist()
     [0.0, 1.0, 2.0, 3.0]
     """
-    P = as_points(P, "P", min_rows=1)
+    return _resample_arclength(as_points(P, "P", min_rows=1), k, with_tangents, oversample)
+
+
+def _resample_arclength(P, k, with_tangents=False, oversample=16):
+    """:func:`resample_arclength` of an already validated (m, 3) float64 array (the fit's inner loops)."""
     u = _chords(P)
-    keep = np.concatenate([[True], np.diff(u) > tol.REPEATED_POINT * u[-1]])
-    if not keep.all():
+    apart = np.diff(u) > tol.REPEATED_POINT * u[-1]
+    if not apart.all():
+        keep = np.concatenate([[True], apart])
         P, u = P[keep], u[keep]
     if len(P) < 2:
         raise NotTubularError(

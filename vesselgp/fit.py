@@ -51,7 +51,7 @@ from ._arrays import thinned
 from ._validate import as_mesh, as_vector
 from .axis import (Axis, AxisStack, circle_fit_solve, circle_fit_sums, hat, interp_frames,
                    local_coords, solve_banded_spd)
-from .curves import chord_length, resample_arclength
+from .curves import _chords, _resample_arclength, chord_length, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError
 from .inside import check_axis_bend, check_axis_inside
 from .mesh import MeshTopology, bbox_diagonal, mesh_scale, mesh_topology, select_ends, vessel_ends
@@ -753,7 +753,7 @@ def _advance(it, axis, corr, radii, s, w, jac, inside, rscale):
     step = float(np.abs(corr).max())
     nodes = nodes + corr
     # parameters on the corrected axis, for the next projection's start
-    new_arc = chord_length(nodes)
+    new_arc = _chords(nodes)
     s_next = np.interp(s, np.linspace(0, 1, K), new_arc / new_arc[-1])
     log.debug("GC iteration %d: axis moved %.3g (radius %.3g)", it.count + 1, step, rscale)
     # robust reweighting until the axis has nearly settled, then a fixed outlier set (IRLS):
@@ -764,7 +764,7 @@ def _advance(it, axis, corr, radii, s, w, jac, inside, rscale):
     # converged: the axis moved less than the tolerance, or (outlier set fixed, the step shrinking
     # geometrically) the next move, predicted as step^2 / previous step, would
     predicted = step * step / it.step if frozen and step < it.step else step
-    return _Iteration(resample_arclength(nodes, K), s_next, radii, it.count + 1,
+    return _Iteration(_resample_arclength(nodes, K), s_next, radii, it.count + 1,
                       min(step, predicted) < tol.GC_CONVERGENCE * rscale, rejected, kept, step, axis)
 
 

@@ -487,8 +487,6 @@ TREE_JUNCTION_SKIP = 0.5
 TREE_JUNCTION_ANCHOR = 0.02
 #: A junction lies at most this many parent radii beyond the parent's fitted axis end.
 TREE_JUNCTION_REACH = 2.0
-#: Projection window of the final branch and path parameterisation, in radii.
-TREE_PROJECTION_WINDOW = 2.0
 #: Opacity of the mesh in the tree picture of ``vesselgp fit`` (the axis network shows through).
 VIZ_TREE_ALPHA = 0.35
 

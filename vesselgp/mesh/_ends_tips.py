@@ -332,7 +332,7 @@ def _hemisphere(V, faces, p, g, h, L):
     center, Rs, rms = _sphere_fit(V[dome])
     F, N, A = faces
     band = (g >= dstar) & (g <= far)
-    walls = band[F].all(axis=1)
+    walls = band[F[:, 0]] & band[F[:, 1]] & band[F[:, 2]]  # (no (m, 3) gather and row reduction)
     axis, flatness = _cylinder_axis(N[walls], A[walls])
     if axis @ (V[p] - center) < 0:
         axis = -axis
