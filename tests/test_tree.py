@@ -99,6 +99,18 @@ def test_paths_of_a_smoothed_voxel_staircase_lie_on_the_true_centre_lines():
         assert err.mean() <= min(1.5 * mean, 1.0), (p.ends, err.mean())
 
 
+def test_every_vertex_of_a_path_sits_at_its_foot(fitted):
+    """Each vertex's parameter on a path is its closest point there: its offset from the axis point is
+    normal to the tangent (along T below 1e-3 r), also near the junctions, where a vertex's start (its
+    own branch's foot, at the parent's end for the surface up to the crotch) can lie radii away."""
+    name, t, tree = fitted
+    for p in tree.paths:
+        on = np.isfinite(p.vertex_s) & (p.vertex_s > 0) & (p.vertex_s < 1)
+        pts, T = p.at(p.vertex_s[on])[0], p.at(p.vertex_s[on])[1][:, 0]
+        along = np.einsum("ij,ij->i", t.V[on] - pts, T)
+        assert np.abs(along).max() < 1.5e-3 * p.mean_radius, (p.ends, np.abs(along).max() / p.mean_radius)
+
+
 def test_junctions_are_where_the_true_centre_lines_meet(fitted):
     name, t, tree = fitted
     J, R = t.truth.junctions

@@ -487,6 +487,11 @@ TREE_JUNCTION_SKIP = 0.5
 TREE_JUNCTION_ANCHOR = 0.02
 #: A junction lies at most this many parent radii beyond the parent's fitted axis end.
 TREE_JUNCTION_REACH = 2.0
+#: A vertex is at its foot on an axis when its offset from the axis point has a component along
+#: the tangent below this many radii (the tree's cylinders project again the few that are not).
+FOOT_TOLERANCE = 1e-3
+#: ... and those start again from the nearest axis sample within this many radii of their start.
+TREE_FOOT_WINDOW = 4.0
 #: Opacity of the mesh in the tree picture of ``vesselgp fit`` (the axis network shows through).
 VIZ_TREE_ALPHA = 0.35
 

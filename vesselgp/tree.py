@@ -40,7 +40,7 @@ from scipy.spatial import cKDTree
 
 from . import tolerances as tol
 from ._validate import as_mesh
-from .axis import Axis
+from .axis import Axis, interp_frames
 from .branches import branch_decomposition, root_end
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
@@ -304,15 +304,40 @@ def _cylinder(V, area, caps_all, idx, nodes, s_prev, it, normal, ends, lam, mu, 
     so each start lies within a sample or two of its foot. (A windowed
     projection from these starts, as until 2026-12-04, gave the same feet to
     4e-7 mesh units on the 27k trees, and its k-d tree query of every vertex
-    cost 11 ms.)
+    cost 11 ms.) The few vertices whose steps end off their foot are projected
+    again (:func:`_refooted`).
     """
     axis = Axis(nodes, normal)
     if isinstance(s_prev, tuple):
         points, row = s_prev
         s_prev = axis.s[cKDTree(axis.points).query(points)[1]][row]
-    s_raw = axis.project(V[idx], s_prev)
+    s_raw = _refooted(axis, V[idx], s_prev, axis.project(V[idx], s_prev), rscale)
     gc = cylinder_from_axis(axis, V[idx], s_raw, caps_all[idx], area[idx], it, mu, lam, ends)
     return _scattered(gc, idx, len(V)), axis
+
+
+def _refooted(axis, P, s_start, s, rscale):
+    """``s`` with the rows whose Newton steps stopped off their foot projected again.
+
+    A path's start for a vertex near a junction is its own branch's foot, which can lie
+    radii from its foot on the path (the parent's vertices up to the crotch end at the
+    parent's end); there Newton's steps converge slowly (0.2-0.5 % of a 27k tree's path
+    vertices were still up to 2 radii off after three). A row within the axis whose offset
+    from its axis point has a component along the tangent above ``tolerances.FOOT_TOLERANCE``
+    radii starts again from the dense sample nearest to it within ``TREE_FOOT_WINDOW`` radii
+    of its start (:meth:`vesselgp.axis.Axis.project`); those still off are logged.
+    """
+    inner = np.flatnonzero((s > 0) & (s < 1))
+    pts, T, _ = interp_frames(axis.s, axis.points, axis.frames, s[inner], frames=False, table=axis.table)
+    off = inner[np.abs(np.einsum("ij,ij->i", P[inner] - pts, T)) > tol.FOOT_TOLERANCE * rscale]
+    if not off.size:
+        return s
+    window = tol.TREE_FOOT_WINDOW * rscale / axis.length
+    s = s.copy()
+    s[off] = axis.project(P[off], s_start[off], window)
+    log.debug("%d of %d vertices projected again onto a tree axis (their Newton steps stopped off the foot)",
+              off.size, len(P))
+    return s
 
 
 def _tree_ends(V, F, topo, ends):
