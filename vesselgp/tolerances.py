@@ -482,6 +482,8 @@ TREE_JUNCTION_CHORD = 3.0
 #: ... starting this many radii from the end (the last stretch is bent by the junction's bulge;
 #: 1.5 while the junction sides were pinned at a biased first node, which bent more of it).
 TREE_JUNCTION_SKIP = 0.5
+#: The link to a junction starts along the axis's chord over this many radii either side of its start.
+TREE_LINK_TANGENT = 0.5
 #: Weight (against the squared sines of the branch angles) pulling a junction towards the parent's
 #: axis end (keeps a shallow bifurcation, with nearly parallel lines, solvable).
 TREE_JUNCTION_ANCHOR = 0.02
