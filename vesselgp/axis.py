@@ -190,6 +190,17 @@ class Axis:
     def at(self, s):
         return interp_frames(self.s, self.points, self.frames, s, table=self.table)
 
+    def tangential_offset(self, P, s):
+        """Component along the tangent of each row of ``P`` minus its axis point at ``s``: (n,) float64.
+
+        Zero at a closest point (the foot); rows are handled ``tolerances.AXIS_ROW_CHUNK`` at a time.
+        """
+        out = np.empty(len(P))
+        for rows in _row_chunks(len(P)):
+            pts, T, _ = _interp(self.table, s[rows], frames=False)
+            out[rows] = _dot3(np.ascontiguousarray(P[rows].T) - pts, T)
+        return out
+
     def node_frames(self):
         """Frames at the nodes, ``s = k / (K - 1)`` ((K, 3, 3), rows T, U, V; a read-only view).
 

@@ -40,7 +40,7 @@ from scipy.spatial import cKDTree
 
 from . import tolerances as tol
 from ._validate import as_mesh
-from .axis import Axis, interp_frames
+from .axis import Axis
 from .branches import branch_decomposition, root_end
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
@@ -337,8 +337,7 @@ def _refooted(axis, P, s_start, s, rscale):
     of its start (:meth:`vesselgp.axis.Axis.project`); those still off are logged.
     """
     inner = np.flatnonzero((s > 0) & (s < 1))
-    pts, T, _ = interp_frames(axis.s, axis.points, axis.frames, s[inner], frames=False, table=axis.table)
-    off = inner[np.abs(np.einsum("ij,ij->i", P[inner] - pts, T)) > tol.FOOT_TOLERANCE * rscale]
+    off = inner[np.abs(axis.tangential_offset(P[inner], s[inner])) > tol.FOOT_TOLERANCE * rscale]
     if not off.size:
         return s
     window = tol.TREE_FOOT_WINDOW * rscale / axis.length
