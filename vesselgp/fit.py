@@ -729,10 +729,11 @@ def _iterate(stack, its, windows, lam, mu):
 def _taper_free_ends(w, s_raw, segments, pin):
     """Weights ``w`` (in place) ramped from 0 at a free (unpinned) end to 1 a segment in.
 
-    A vertex crossing a free end then enters or leaves the data with no weight: with a hard
+    A vertex crossing a free end then enters or leaves the data with no weight. With a hard
     cut, a few vertices at a junction side toggled in and out and the end node cycled, a
-    step of 1.5e-2 radii each way, or settled where the outlier set happened to be frozen
-    (a rigid motion moved a branch by 2e-3 radii instead of 1e-14).
+    step of 1.5e-2 radii each way, to the iteration cap. Taking the vertices beyond a free
+    end in instead converged, but to where the outlier set happened to be frozen: a rigid
+    motion moved a branch by 2e-3 radii instead of 1e-14.
     """
     if not pin[0]:
         w *= np.clip(s_raw * segments, 0.0, 1.0)

@@ -334,7 +334,8 @@ def _refooted(axis, P, s_start, s, rscale):
     vertices were still up to 2 radii off after three). A row within the axis whose offset
     from its axis point has a component along the tangent above ``tolerances.FOOT_TOLERANCE``
     radii starts again from the dense sample nearest to it within ``TREE_FOOT_WINDOW`` radii
-    of its start (:meth:`vesselgp.axis.Axis.project`); those still off are logged.
+    of its start (:meth:`vesselgp.axis.Axis.project`); their number is logged (debug). The
+    test ``test_every_vertex_of_a_path_sits_at_its_foot`` checks that none is left off.
     """
     inner = np.flatnonzero((s > 0) & (s < 1))
     off = inner[np.abs(axis.tangential_offset(P[inner], s[inner])) > tol.FOOT_TOLERANCE * rscale]
