@@ -395,3 +395,28 @@ def test_every_branch_of_a_finer_smoothed_staircase_converges(caplog):
         keep = t.truth.interior_mask(p.dense_points)
         err = 100 * d[keep] / r[keep]
         assert err.max() <= 5.0 and err.mean() <= 1.0, (p.ends, err.max(), err.mean())
+
+
+def test_a_junction_link_leaves_a_bending_axis_along_its_tangent():
+    """The link to a junction starts where the axis is kept (``TREE_JUNCTION_SKIP`` radii from its
+    end) heading along the axis there, so a bending branch has no kink: on a circular arc of radius
+    10 r the link's start tangent is the circle's to 0.2 degrees (a link along the three-radius end
+    chord started 8.6 degrees off). The link is sampled finely here (``_attach``'s radius sets only
+    its sampling), so its first step shows its start tangent; the kept nodes are the arc's."""
+    from vesselgp import tolerances as tol
+    from vesselgp.tree import _attach, _end_line
+
+    R, r = 10.0, 1.0
+    th = np.arange(0.0, 12.0 + 1e-9, 0.5) / R  # nodes every half radius along the arc
+    nodes = R * np.c_[np.cos(th), np.sin(th), 0 * th]
+    line = _end_line(nodes, r, at_start=False)
+    th0 = th[-1] - tol.TREE_JUNCTION_SKIP * r / R  # where the link starts (arc length from the end)
+    assert np.linalg.norm(line[0] - R * np.array([np.cos(th0), np.sin(th0), 0])) < 1e-2 * r
+    J = R * np.array([np.cos(th[-1] + 1.0 / R), np.sin(th[-1] + 1.0 / R), 0.0])  # on the arc beyond the end
+    out = _attach(nodes, J, line, 1e-3 * r, at_start=False)
+    k = int(np.argmin(np.linalg.norm(out - line[0], axis=1)))
+    step = out[k + 1] - out[k]
+    tangent = np.array([-np.sin(th0), np.cos(th0), 0.0])
+    assert np.degrees(np.arccos(np.clip(step @ tangent / np.linalg.norm(step), -1, 1))) < 0.2
+    assert np.abs(np.linalg.norm(out[:k, :2], axis=1) - R).max() < 1e-9  # the kept nodes are the arc's
+    np.testing.assert_allclose(out[-1], J)
