@@ -21,12 +21,12 @@ from _data import REAL
 
 # README "Vessel trees" table: worst and mean path-axis error (% of the true radius) away from
 # junctions (2 r) and tips (1.5 r), per tree; the tests assert 1.5 x these figures.
-README_AXIS = {"4 tips": (0.113, 0.0064), "3 tips": (0.108, 0.0060), "8 tips": (0.139, 0.0061)}
-README_RADIUS_MAX = {"4 tips": 0.94, "3 tips": 0.76, "8 tips": 4.0}  # % worst radius error, same stretch
+README_AXIS = {"4 tips": (0.113, 0.0066), "3 tips": (0.108, 0.0062), "8 tips": (0.159, 0.0070)}
+README_RADIUS_MAX = {"4 tips": 0.85, "3 tips": 0.88, "8 tips": 3.7}  # % worst radius error, same stretch
 README_JUNCTION = 0.12        # junction distance from the true one, in parent end radii
 # README "segmentation-like tree" (Accuracy and speed): the voxel staircase of the 4-tip tree (voxel 0.4) smoothed by
 # clean_mesh(smooth=10); worst and worst mean path-axis error (% r), same stretch
-README_STAIRCASE_AXIS = (3.22, 0.73)
+README_STAIRCASE_AXIS = (3.15, 0.71)
 
 
 @pytest.fixture(scope="module", params=list(README_AXIS))
@@ -420,3 +420,32 @@ def test_a_junction_link_leaves_a_bending_axis_along_its_tangent():
     assert np.degrees(np.arccos(np.clip(step @ tangent / np.linalg.norm(step), -1, 1))) < 0.2
     assert np.abs(np.linalg.norm(out[:k, :2], axis=1) - R).max() < 1e-9  # the kept nodes are the arc's
     np.testing.assert_allclose(out[-1], J)
+
+
+def test_a_branch_starts_behind_its_tip_and_converges_in_a_few_iterations(fitted, monkeypatch):
+    """A leaf branch's initial axis is pinned to its tip's centre, the centre of the dome's sphere:
+    the wall behind the tip's plane lies on the tube, the dome beyond it does not. With the dome
+    in the initial bands, the axis began with a hairpin out to 0.79-0.90 radii past the plane
+    and back, its first radii near the tip a quarter short, and the outlier test took leaf
+    branches 8-14 iterations (6.7-7.8 on average per tree) instead of 4-9 (4.6-5.1)."""
+    import vesselgp.tree as vt
+
+    name, t, _ = fitted
+    seen = {}
+
+    def spy(problems, **kw):
+        seen["problems"], seen["fits"] = problems, vt.fixed_points.__wrapped__(problems, **kw)
+        return seen["fits"]
+
+    spy.__wrapped__ = vt.fixed_points
+    monkeypatch.setattr(vt, "fixed_points", spy)
+    tree = fit_vessel_tree(t.V, t.F)
+    leaves = []
+    for p, it in zip(seen["problems"], seen["fits"]):
+        tip = [e for e in tree.ends if e.kind != "open" and np.linalg.norm(p.nodes[-1] - e.center) < 1e-9 * e.radius]
+        if tip:
+            e = tip[0]
+            assert ((p.nodes - e.center) @ e.direction).max() <= 1e-9 * e.radius
+            leaves.append(it.count)
+    assert len(leaves) == len(tree.paths)
+    assert max(leaves) <= 10 and np.mean(leaves) <= 6.0, leaves
