@@ -126,8 +126,9 @@ def bench_tree(n_target, repeat, vmtk_python=None, surface="exact"):
 
 
 def tree_targets(rows):
-    """Issue #13 targets, per surface: <= 0.5 s and <= 1/10 of VMTK's centre lines for the ~27k
-    4-tip tree; accuracy within 5 % / 1 % of the radius and better than VMTK's on the same mesh."""
+    """Issue #13 targets, per surface: <= 0.5 s and <= 1/10 of VMTK's time for the ~27k 4-tip tree
+    (its centre lines and branch splitting, as the issue measured VMTK; also against its centre
+    lines alone); accuracy within 5 % / 1 % of the radius and better than VMTK's on the same mesh."""
     out = []
     for surface in ("exact", "staircase"):
         cand = [x for x in rows if x.get("surface", "exact") == surface]
@@ -138,7 +139,12 @@ def tree_targets(rows):
         out.append({"target": f"fit_vessel_tree, {tag}", "value": r["fit_vessel_tree_s"], "limit": 0.5,
                     "unit": "s", "vertices": r["vertices"]})
         if "vmtk_centerline_s" in r:
-            out.append({"target": f"fit_vessel_tree / VMTK centre lines (qhull), {tag}",
+            # the issue's measure: VMTK's time "including branch splitting" (its 4.9 s); and the
+            # stricter one against its centre lines alone
+            out.append({"target": f"fit_vessel_tree / VMTK centre lines + branch split (qhull), {tag}",
+                        "value": r["fit_vessel_tree_s"] / (r["vmtk_centerline_s"] + r["vmtk_branch_split_s"]),
+                        "limit": 0.1, "unit": "x", "vertices": r["vertices"]})
+            out.append({"target": f"fit_vessel_tree / VMTK centre lines alone (qhull), {tag}",
                         "value": r["fit_vessel_tree_s"] / r["vmtk_centerline_s"], "limit": 0.1, "unit": "x",
                         "vertices": r["vertices"]})
         out.append({"target": f"worst path-axis error, {tag}", "value": r["axis_max_pct"], "limit": 5.0,

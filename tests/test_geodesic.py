@@ -138,3 +138,25 @@ def test_a_checked_mesh_shares_its_topology_only_when_no_face_was_dropped():
     F2 = np.vstack([F, [[F[0, 0], F[0, 1], F[0, 1]]]])
     c2 = checked_mesh(V, F2)
     assert len(c2.faces) == len(F) and c2.faces_topology is None
+
+
+def test_cotangent_operators_are_libigls_cotmatrix_grad_and_areas():
+    """The heat method's Laplacian and gradient (numpy) against libigl's own, on an irregular
+    triangulation (random points on a sphere: slivers, obtuse corners, faces of either
+    orientation), and the gradient of a linear function, which is exact per face."""
+    import igl
+    from vesselgp.mesh._geometry import cotangent_operators
+
+    V, F = _random_sphere(3000, 2.0, seed=3)
+    F[::2] = F[::2, ::-1]  # mixed orientations: the gradient is the same either way
+    L, G, area = cotangent_operators(V, F)
+    L0, G0 = igl.cotmatrix(V, F), igl.grad(V, F)
+    assert abs(L - L0).max() <= 1e-12 * abs(L0).max()
+    assert abs(G - G0).max() <= 1e-12 * abs(G0).max()
+    np.testing.assert_allclose(area, 0.5 * igl.doublearea(V, F), rtol=1e-12)
+    a = np.array([0.3, -1.2, 0.7])
+    g = (G @ (V @ a)).reshape(3, -1).T  # a's component in each face's plane
+    N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    N /= np.linalg.norm(N, axis=1)[:, None]
+    np.testing.assert_allclose(g, a - (N @ a)[:, None] * N, atol=1e-9)
+    np.testing.assert_allclose(np.asarray(L.sum(axis=1)).ravel(), 0.0, atol=1e-12 * abs(L0).max())

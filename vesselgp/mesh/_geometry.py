@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import igl
 import numpy as np
+import scipy.sparse as sp
 
 from .. import tolerances as tol
 from .._arrays import chunks
@@ -55,6 +56,57 @@ def _corner_voronoi(V, F):
         share[k] = 0.25
         quads[:, obtuse] = share * dblA[obtuse]
     return quads
+
+
+def cotangent_operators(V, F):
+    """libigl's ``cotmatrix`` and ``grad`` of ``V, F`` and the face areas, evaluated in numpy.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+        Faces with an area (as :func:`vesselgp.fit.checked_mesh` returns them).
+
+    Returns
+    -------
+    L : (n, n) scipy.sparse.csc_matrix
+        The cotangent Laplacian, ``L_ij = (cot alpha_ij + cot beta_ij) / 2`` off the diagonal
+        and minus the row sum on it (negative semi-definite, as ``igl.cotmatrix``).
+    G : (3 m, n) scipy.sparse.csr_matrix
+        The per-face gradient of a vertex function, component ``d`` of face ``f`` in row
+        ``d m + f`` (as ``igl.grad``): the gradient of corner ``k``'s hat function is
+        ``N x e_k / (2 A)``, ``e_k`` the edge opposite it, counter-clockwise about the unit
+        normal ``N``.
+    area : (m,) float64
+        The face areas.
+
+    Both matrices agree with libigl's to 1e-14 of their largest entry
+    (``tests/test_geodesic.py``); the heat method's set-up needs them both, and this takes
+    about half of the two libigl calls' time (16 against 31 ms on a 27k tree), sharing the
+    edge vectors and the areas.
+    """
+    n, m = len(V), len(F)
+    P = [np.ascontiguousarray(V.take(F[:, k], axis=0).T) for k in range(3)]  # component-major corners
+    e = [P[2] - P[1], P[0] - P[2], P[1] - P[0]]  # the edge opposite each corner
+    cr = np.stack([e[1][1] * e[2][2] - e[1][2] * e[2][1], e[1][2] * e[2][0] - e[1][0] * e[2][2],
+                   e[1][0] * e[2][1] - e[1][1] * e[2][0]])  # e_1 x e_2 = 2 A N
+    dblA = np.sqrt((cr * cr).sum(axis=0))
+    N = cr / dblA
+    B = np.empty((3, m, 3))  # (component, face, corner)
+    for k, ek in enumerate(e):
+        B[0, :, k] = (N[1] * ek[2] - N[2] * ek[1]) / dblA
+        B[1, :, k] = (N[2] * ek[0] - N[0] * ek[2]) / dblA
+        B[2, :, k] = (N[0] * ek[1] - N[1] * ek[0]) / dblA
+    G = sp.csr_matrix((B.ravel(), np.tile(F.ravel(), 3), np.arange(0, 9 * m + 1, 3)), shape=(3 * m, n))
+    # cot of corner k = -(e_{k+1} . e_{k+2}) / (2 A), on the edge opposite k (vertices k+1, k+2)
+    w = np.concatenate([-0.5 * (e[(k + 1) % 3] * e[(k + 2) % 3]).sum(axis=0) / dblA for k in range(3)])
+    i = np.concatenate([F[:, (k + 1) % 3] for k in range(3)])
+    j = np.concatenate([F[:, (k + 2) % 3] for k in range(3)])
+    diag = -np.bincount(i, w, n) - np.bincount(j, w, n)
+    ids = np.arange(n)
+    L = sp.csc_matrix((np.concatenate([w, w, diag]), (np.concatenate([i, j, ids]), np.concatenate([j, i, ids]))),
+                      shape=(n, n))
+    return L, G, 0.5 * dblA
 
 
 def median_edge(V, F):

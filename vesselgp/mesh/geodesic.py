@@ -17,6 +17,9 @@ sparse LU of the bordered system; the pinned Poisson matrix is positive definite
 both steps are Cholesky factorisations (``igl.min_quad_with_fixed``, 0.13-0.15 s together
 on a 27k-vertex tree; the whole precomputation 0.19-0.23 s against libigl's 0.25-0.32 s, in
 turn). The distances agree with libigl's to 1e-12 of the largest (``tests/test_geodesic.py``).
+The cotangent Laplacian, the per-face gradient and the face areas come from one numpy pass
+(:func:`vesselgp.mesh._geometry.cotangent_operators`, libigl's ``cotmatrix`` and ``grad``
+to 1e-14): 16 ms against the two libigl calls' 31 ms on a 27k tree.
 
 The heat time is the larger of libigl's default (the mean edge length squared) and the time
 at which heat from a source still reaches the far side of the mesh above
@@ -36,7 +39,7 @@ import scipy.sparse as sp
 
 from .. import tolerances as tol
 from ..errors import InvalidMeshError, OptionError
-from ._geometry import voronoi_areas
+from ._geometry import cotangent_operators, voronoi_areas
 from .topology import mesh_topology
 
 __all__ = ["GeodesicDistances"]
@@ -99,7 +102,7 @@ class GeodesicDistances:
         mass = voronoi_areas(V, F) if areas is None else areas
         if len(Vc) > len(V):  # the fans' faces (the last ones) add their shares
             mass = np.concatenate([mass, np.zeros(len(Vc) - len(V))]) + voronoi_areas(Vc, Fc[len(F):])
-        L = igl.cotmatrix(Vc, Fc)
+        L, self._grad, self._area = cotangent_operators(Vc, Fc)  # (3 m, n) gradient, as igl.grad
         none = np.zeros(0, np.int64)
         no_eq = sp.csc_matrix((0, len(Vc)))
         self._heat = igl.min_quad_with_fixed_data()   # step 1: M - t L
@@ -107,8 +110,6 @@ class GeodesicDistances:
                                            True, self._heat)
         self._poisson = igl.min_quad_with_fixed_data()  # step 3: -L, vertex 0 pinned
         igl.min_quad_with_fixed_precompute((-L).tocsc(), np.zeros(1, np.int64), no_eq, True, self._poisson)
-        self._grad = igl.grad(Vc, Fc)  # (3 m, n): component d of face f's gradient in row d m + f
-        self._area = 0.5 * igl.doublearea(Vc, Fc)
         self._div = self._grad.T  # minus the weak divergence of a face field, times the area
         self._n = len(Vc)
 
