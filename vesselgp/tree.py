@@ -158,15 +158,18 @@ def _behind(V, weights, ends):
     first radii near the tip came out a quarter short, and the outlier test (Eq. 5) then took
     four to six more iterations to let the wall there back in (a 27k tree's leaf branches: 9
     to 11 iterations, now 5). An end's plane passes through its centre across its
-    ``direction`` (out of the vessel).
+    ``direction``, taken in the sense that puts the area centroid of ``weights`` behind it (an
+    end given with its direction reversed cuts the same side).
 
     The single-path fit (:func:`vesselgp.fit_generalized_cylinder`) starts from a harmonic
     field instead; the same cut there made no difference at its tips and, on paths through
     a junction, took 3-5 more iterations, so it is not used there.
     """
     out = weights.copy()
+    centroid = weights @ V / weights.sum()
     for e in ends:
-        out[(V - e.center) @ e.direction > 0] = 0.0
+        h = (V - e.center) @ e.direction
+        out[h * np.sign((centroid - e.center) @ e.direction) < 0] = 0.0
     return out
 
 
