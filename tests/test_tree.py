@@ -21,12 +21,12 @@ from _data import REAL
 
 # README "Vessel trees" table: worst and mean path-axis error (% of the true radius) away from
 # junctions (2 r) and tips (1.5 r), per tree; the tests assert 1.5 x these figures.
-README_AXIS = {"4 tips": (0.113, 0.0066), "3 tips": (0.108, 0.0062), "8 tips": (0.159, 0.0070)}
-README_RADIUS_MAX = {"4 tips": 0.85, "3 tips": 0.88, "8 tips": 3.7}  # % worst radius error, same stretch
+README_AXIS = {"4 tips": (0.040, 0.0021), "3 tips": (0.041, 0.0021), "8 tips": (0.035, 0.0022)}
+README_RADIUS_MAX = {"4 tips": 0.044, "3 tips": 0.055, "8 tips": 0.077}  # % worst radius error, same stretch
 README_JUNCTION = 0.12        # junction distance from the true one, in parent end radii
 # README "segmentation-like tree" (Accuracy and speed): the voxel staircase of the 4-tip tree (voxel 0.4) smoothed by
 # clean_mesh(smooth=10); worst and worst mean path-axis error (% r), same stretch
-README_STAIRCASE_AXIS = (3.15, 0.71)
+README_STAIRCASE_AXIS = (3.25, 0.72)
 
 
 @pytest.fixture(scope="module", params=list(README_AXIS))
@@ -361,8 +361,9 @@ def test_a_shared_geodesic_solver_gives_the_same_fits_and_a_wrong_one_is_refused
 def test_branches_are_held_to_the_bend_limit_and_paths_may_turn_at_junctions(monkeypatch):
     """Every branch axis goes through check_axis_bend (kappa r below tolerances.GC_MAX_BEND); the
     paths, which turn through their junctions, do not. The 2-tip tree's paths turn at their
-    junction by more than a tube may bend (kappa r above 1 there on the fitted path) and the tree
-    fits; with the limit lowered below its branches' bends the same fit raises."""
+    junction (rounded over ``TREE_PATH_ROUNDING`` radii each side: kappa r about 0.4 there, the
+    branches below 0.1): with the limit between the two the tree fits; with the limit lowered
+    below its branches' bends the same fit raises."""
     from vesselgp import tolerances as tol
 
     t = synthetic_tree(levels=1, voxel=0.6)
@@ -372,7 +373,11 @@ def test_branches_are_held_to_the_bend_limit_and_paths_may_turn_at_junctions(mon
         k = np.linalg.norm(np.gradient(gc.dense_frames[:, 0], gc.dense_s * gc.length, axis=0), axis=1)
         return k * gc.radius_at(gc.dense_s)
 
-    assert max(kappa_r(p).max() for p in tree.paths) > tol.GC_MAX_BEND
+    turn = max(kappa_r(p).max() for p in tree.paths)
+    bend = max(kappa_r(b).max() for b in tree.branches)
+    assert 2 * bend < turn < tol.GC_MAX_BEND  # a path's turn is rounded, yet sharper than its branches
+    monkeypatch.setattr(tol, "GC_MAX_BEND", 0.5 * (bend + turn))
+    fit_vessel_tree(t.V, t.F)
     monkeypatch.setattr(tol, "GC_MAX_BEND", 0.02)
     with pytest.raises(vesselgp.NotTubularError, match="bends tighter than its radius"):
         fit_vessel_tree(t.V, t.F)

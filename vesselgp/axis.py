@@ -497,13 +497,22 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
     return circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends)
 
 
-def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=True):
+def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=True, mirror_ends=False):
     """The regularised normal equations of :func:`circle_fit_correction` from its data sums
     ``S`` (K - 1, 21) and ``R`` (K - 1, 6) (:func:`circle_fit_sums`), solved: (K, 3) corrections.
 
     ``pin_ends`` holds the end nodes where they are (no correction): a bool for both, or a pair
     (first, last). A tree's branch pins only the ends that sit at a mesh end's centre; its
-    junction sides are free (:func:`vesselgp.fit.fixed_points`)."""
+    junction sides are free (:func:`vesselgp.fit.fixed_points`).
+
+    ``mirror_ends`` (a bool for both, or a pair; only at a pinned end) continues Eq. 2's second
+    differences one node past the end, to the mirror image of the next node across the end's
+    normal plane (a ghost node, taken from the current axis). Without it the second differences
+    stop at the end, and their normal equations there are a second difference instead of the
+    interior's fourth: the first free node is pulled towards the chord by about lambda x
+    curvature x spacing^2 (0.11 % r at a tree's open root). With the mirror row the pull is of
+    fourth order as inside (curvature is even about the end). The ghost lags one iteration; its
+    pull on the next node is small against that node's other rows, so the lag contracts."""
     K = len(centers)
     n3 = 3 * K
     rhs = np.zeros(n3)
@@ -524,6 +533,18 @@ def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=Tru
     rows.append(red[:, _PAIR_A].ravel())
     cols.append(red[:, _PAIR_B].ravel())
     vals.append(lw * gram.ravel())
+    pin, mirror = _pair(pin_ends), _pair(mirror_ends)
+    for i0, i1, on in ((0, 1, pin[0] and mirror[0]), (K - 1, K - 2, pin[1] and mirror[1])):
+        if on:  # the ghost row g - 2 C_i0 + (C_i1 + Delta_i1), g the mirror image of C_i1 (lagged)
+            v = centers[i1] - centers[i0]
+            T0 = axis_frames_nodes[i0, 0]
+            d2g = 2.0 * (v - (v @ T0) * T0)
+            ids = np.array([3 * i1, 3 * i1 + 1, 3 * i1 + 1])
+            rhs[ids[:2]] -= lw * (E[i1] @ d2g)
+            G = E[i1] @ E[i1].T
+            rows.append(ids)
+            cols.append(ids[[0, 1, 0]])
+            vals.append(lw * np.array([G[0, 0], G[1, 1], G[1, 0]]))
     # keep d well posed where a node has no data (d is an area: its weight is
     # divided by rscale^2 so that the fit is the same in any length unit)
     ed = tol.GC_AREA_RIDGE * Wbar / rscale**2
@@ -532,7 +553,6 @@ def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=Tru
     cols += [3 * k1 + 2, 3 * k1 + 5, 3 * k1 + 2]
     vals += [np.full(K - 1, ed), np.full(K - 1, ed), np.full(K - 1, -ed)]
     rows, cols, vals = np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)
-    pin = (pin_ends, pin_ends) if isinstance(pin_ends, (bool, np.bool_)) else tuple(pin_ends)
     if any(pin):  # the first and / or the last node's cx, cy held at 0
         pinned = np.array(([0, 1] if pin[0] else []) + ([3 * (K - 1), 3 * (K - 1) + 1] if pin[1] else []),
                           dtype=np.int64)
@@ -545,6 +565,11 @@ def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=Tru
     ab = np.bincount((rows - cols) * n3 + cols, vals, minlength=(bw + 1) * n3).reshape(bw + 1, n3)
     sol = solve_banded_spd(ab, rhs)
     return sol[0::3, None] * E[:, 0] + sol[1::3, None] * E[:, 1]
+
+
+def _pair(flag):
+    """A per-end option as a (first, last) pair: a bool for both ends, or a pair already."""
+    return (flag, flag) if isinstance(flag, (bool, np.bool_)) else tuple(flag)
 
 
 def checked_solution(x):

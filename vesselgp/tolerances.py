@@ -484,6 +484,9 @@ TREE_JUNCTION_CHORD = 3.0
 TREE_JUNCTION_SKIP = 0.5
 #: The link to a junction starts along the axis's chord over this many radii either side of its start.
 TREE_LINK_TANGENT = 0.5
+#: A path turns through a junction on a cubic Hermite curve over this many radii on either side of
+#: it (the branch axes' own points elsewhere; a spline through the path's nodes rang at the turn).
+TREE_PATH_ROUNDING = 1.0
 #: Weight (against the squared sines of the branch angles) pulling a junction towards the parent's
 #: axis end (keeps a shallow bifurcation, with nearly parallel lines, solvable).
 TREE_JUNCTION_ANCHOR = 0.02

@@ -205,7 +205,8 @@ def _branch_problem(V, area, rd, idx, caps, start, end):
     # only the ends at a mesh end's centre are pinned: a junction side starts at the band centroid of
     # the junction's bulge and must move (pinned there, it bent the axis 1-4 % r out to 3 radii)
     return FitProblem(resample_arclength(pts, K), s0, Vb, ab, caps, rscale, L0,
-                      pin=(start is not None, end is not None))
+                      pin=(start is not None, end is not None),
+                      mirror=tuple(e is not None and e.kind != "rounded" for e in (start, end)))
 
 
 # ----------------------------------------------------------------------------- junctions
@@ -328,7 +329,7 @@ def _scattered(gc, idx, n):
                    vertex_area=full(gc.vertex_area, 0.0))
 
 
-def _cylinder(V, area, caps_all, idx, nodes, s_prev, it, normal, ends, lam, mu, rscale):
+def _cylinder(V, area, caps_all, idx, nodes, s_prev, it, normal, ends, lam, mu, rscale, spn=None):
     """The generalized cylinder of one branch (or path) through ``nodes``, on vertices ``idx``.
 
     ``s_prev`` is each vertex's parameter on this axis, or ``(points, index)``:
@@ -340,9 +341,10 @@ def _cylinder(V, area, caps_all, idx, nodes, s_prev, it, normal, ends, lam, mu, 
     projection from these starts, as until 2026-12-04, gave the same feet to
     4e-7 mesh units on the 27k trees, and its k-d tree query of every vertex
     cost 11 ms.) The few vertices whose steps end off their foot are projected
-    again (:func:`_refooted`).
+    again (:func:`_refooted`). ``spn`` is the axis's dense samples per node (default
+    ``tolerances.GC_SAMPLES_PER_NODE``; 1 when ``nodes`` are already that dense).
     """
-    axis = Axis(nodes, normal)
+    axis = Axis(nodes, normal, samples_per_node=spn)
     if isinstance(s_prev, tuple):
         points, row = s_prev
         s_prev = axis.s[cKDTree(axis.points).query(points)[1]][row]
@@ -501,15 +503,45 @@ def _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu):
     return branches, axes
 
 
+def _rounded_chain(parts, rscales):
+    """The branch axes' dense points end to end, each turn at a junction rounded: (p, 3) float64.
+
+    Each child's points start at the junction where its parent's end. Within
+    ``tolerances.TREE_PATH_ROUNDING`` radii (the smaller of the two branches') of the junction
+    on either side, the points give way to the cubic Hermite curve between the two cut points
+    along the axes' directions there: a path turns through a junction with a curvature of about
+    its angle over twice that length (the paths are not held to the bend limit; see
+    :func:`vesselgp.inside.check_axis_bend`), and elsewhere keeps to its branches' axes.
+    """
+    out = [parts[0]]
+    for k in range(1, len(parts)):
+        a = tol.TREE_PATH_ROUNDING * min(rscales[k - 1], rscales[k])
+        head, tail = out[-1], parts[k]
+        ah, at = chord_length(head[::-1]), chord_length(tail)
+        ih = int(np.searchsorted(ah, min(a, 0.5 * ah[-1])))  # samples from the junction back
+        it = int(np.searchsorted(at, min(a, 0.5 * at[-1])))
+        P, Q = head[len(head) - 1 - ih], tail[it]
+        tp = head[len(head) - 1 - ih] - head[len(head) - 2 - ih]
+        tq = tail[it + 1] - tail[it]
+        n = max(ih + it, 2) + 1
+        out[-1] = head[:len(head) - 1 - ih]
+        out += [_hermite(P, tp / np.linalg.norm(tp), Q, tq / np.linalg.norm(tq), n)[:-1], tail[it:]]
+    return np.vstack(out)
+
+
 def _paths(V, area, caps, branches, axes, raw, br, root, lam, mu):
-    """The root-to-tip chain of branch axes for every tip, with one RMF and its own radius fit."""
+    """The root-to-tip chain of branch axes for every tip, with one RMF and its own radius fit.
+
+    A path's axis is the spline through its branches' dense samples end to end (each branch's
+    link reaches the junction), resampled at equal arc length; its radius is fitted (Eq. 5) on
+    as many nodes as its branches have together."""
     paths, chains = [], []
     for tip in sorted(br.end_branch):
         chain = [br.end_branch[tip]]
         while br.parent[chain[-1]] >= 0:
             chain.append(int(br.parent[chain[-1]]))
         chain = chain[::-1]
-        pts = np.vstack([axes[chain[0]].points] + [axes[b].points[1:] for b in chain[1:]])
+        pts = _rounded_chain([axes[b].points for b in chain], [raw[b].rscale for b in chain])
         lengths = np.array([axes[b].length for b in chain])
         offset = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
         total = float(lengths.sum())
@@ -523,10 +555,15 @@ def _paths(V, area, caps, branches, axes, raw, br, root, lam, mu):
         for k, b in enumerate(chain):  # later branches overwrite from their start on
             m = sK * total >= offset[k]
             radii[m] = branches[b].radius_at((sK[m] * total - offset[k]) / lengths[k])
-        it = replace(raw[chain[-1]].it, radii=radii, count=max(raw[b].it.count for b in chain),
+        # the path's own K nodes for its radius fit (the leaf's K, as until 2026-12-05, fitted the
+        # radius of the whole path on the leaf's node count: 0.85-3.7 % r off at junction edges)
+        it = replace(raw[chain[-1]].it, nodes=nodes, radii=radii, count=max(raw[b].it.count for b in chain),
                      converged=all(raw[b].it.converged for b in chain))
-        gc, _ = _cylinder(V, area, caps, idx, nodes, s_prev, it, axes[0].frames[0, 1], (root, tip), lam, mu,
-                          min(raw[b].rscale for b in chain))
+        # the axis through the branches' dense samples, not through the K nodes: a spline through
+        # the nodes rang at the turn at each junction (0.1 % r still at 2-3 radii from it)
+        dense = resample_arclength(pts, tol.GC_SAMPLES_PER_NODE * (K - 1) + 1)
+        gc, _ = _cylinder(V, area, caps, idx, dense, s_prev, it, axes[0].frames[0, 1], (root, tip), lam, mu,
+                          min(raw[b].rscale for b in chain), spn=1)
         paths.append(gc)
         chains.append(tuple(chain))
     return paths, chains
