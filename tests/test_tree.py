@@ -21,8 +21,8 @@ from _data import REAL
 
 # README "Vessel trees" table: worst and mean path-axis error (% of the true radius) away from
 # junctions (2 r) and tips (1.5 r), per tree; the tests assert 1.5 x these figures.
-README_AXIS = {"4 tips": (0.040, 0.0021), "3 tips": (0.041, 0.0021), "8 tips": (0.035, 0.0022)}
-README_RADIUS_MAX = {"4 tips": 0.044, "3 tips": 0.055, "8 tips": 0.077}  # % worst radius error, same stretch
+README_AXIS = {"4 tips": (0.040, 0.0018), "3 tips": (0.041, 0.0019), "8 tips": (0.035, 0.0019)}
+README_RADIUS_MAX = {"4 tips": 0.045, "3 tips": 0.055, "8 tips": 0.077}  # % worst radius error, same stretch
 README_JUNCTION = 0.12        # junction distance from the true one, in parent end radii
 # README "segmentation-like tree" (Accuracy and speed): the voxel staircase of the 4-tip tree (voxel 0.4) smoothed by
 # clean_mesh(smooth=10); worst and worst mean path-axis error (% r), same stretch
@@ -454,6 +454,9 @@ def test_a_branch_starts_behind_its_tip_and_converges_in_a_few_iterations(fitted
             leaves.append(it.count)
     assert len(leaves) == len(tree.paths)
     assert max(leaves) <= 10 and np.mean(leaves) <= 6.0, leaves
+    # the root branch, with a mirror ghost past its open end (taken from the corrected nodes), as
+    # quickly as without one (3-4 iterations; from the last axis's frame the ghost lagged: 5-6)
+    assert seen["fits"][0].count <= 4, seen["fits"][0].count
 
 
 def test_ends_given_with_their_directions_reversed_give_the_same_tree():

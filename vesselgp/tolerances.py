@@ -122,6 +122,9 @@ GC_NEWTON_STEPS = 3
 #: over from the last iteration, already within the axis's last move of its foot, so one step
 #: keeps it there (Newton converges quadratically); every final projection takes the full count.
 GC_NEWTON_STEPS_WARM = 1
+#: Solves of Eq. 3's banded system per iteration at an end with a mirror ghost node (the ghost
+#: follows the correction: :func:`vesselgp.axis.circle_fit_solve`).
+GC_MIRROR_SOLVES = 3
 #: Dense samples of the axis per node spacing, used to project vertices onto the axis.
 GC_SAMPLES_PER_NODE = 8
 #: The fit's inner iterations carry the previous axis's frame over by projection while no
