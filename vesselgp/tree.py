@@ -532,9 +532,9 @@ def _rounded_chain(parts, rscales):
 def _paths(V, area, caps, branches, axes, raw, br, root, lam, mu):
     """The root-to-tip chain of branch axes for every tip, with one RMF and its own radius fit.
 
-    A path's axis is the spline through its branches' dense samples end to end (each branch's
-    link reaches the junction), resampled at equal arc length; its radius is fitted (Eq. 5) on
-    as many nodes as its branches have together."""
+    A path's axis is the spline through its branches' dense samples end to end, each turn at a
+    junction rounded (:func:`_rounded_chain`), resampled at equal arc length; its radius is
+    fitted (Eq. 5) on as many nodes as its branches have together."""
     paths, chains = [], []
     for tip in sorted(br.end_branch):
         chain = [br.end_branch[tip]]
@@ -549,7 +549,9 @@ def _paths(V, area, caps, branches, axes, raw, br, root, lam, mu):
         s_prev = np.concatenate([(offset[k] + branches[b].vertex_s[raw[b].idx] * lengths[k]) / total
                                  for k, b in enumerate(chain)])
         K = int(sum(len(raw[b].nodes) for b in chain))
-        nodes = resample_arclength(pts, K)
+        # the axis through the branches' dense samples, not through K nodes: a spline through the
+        # nodes rang at the turn at each junction (0.1 % r still at 2-3 radii from it)
+        dense = resample_arclength(pts, tol.GC_SAMPLES_PER_NODE * (K - 1) + 1)
         sK = np.linspace(0, 1, K)
         radii = np.empty(K)
         for k, b in enumerate(chain):  # later branches overwrite from their start on
@@ -557,11 +559,8 @@ def _paths(V, area, caps, branches, axes, raw, br, root, lam, mu):
             radii[m] = branches[b].radius_at((sK[m] * total - offset[k]) / lengths[k])
         # the path's own K nodes for its radius fit (the leaf's K, as until 2026-12-05, fitted the
         # radius of the whole path on the leaf's node count: 0.85-3.7 % r off at junction edges)
-        it = replace(raw[chain[-1]].it, nodes=nodes, radii=radii, count=max(raw[b].it.count for b in chain),
-                     converged=all(raw[b].it.converged for b in chain))
-        # the axis through the branches' dense samples, not through the K nodes: a spline through
-        # the nodes rang at the turn at each junction (0.1 % r still at 2-3 radii from it)
-        dense = resample_arclength(pts, tol.GC_SAMPLES_PER_NODE * (K - 1) + 1)
+        it = replace(raw[chain[-1]].it, nodes=dense[::tol.GC_SAMPLES_PER_NODE], radii=radii,
+                     count=max(raw[b].it.count for b in chain), converged=all(raw[b].it.converged for b in chain))
         gc, _ = _cylinder(V, area, caps, idx, dense, s_prev, it, axes[0].frames[0, 1], (root, tip), lam, mu,
                           min(raw[b].rscale for b in chain), spn=1)
         paths.append(gc)
