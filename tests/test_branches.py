@@ -62,9 +62,12 @@ def test_vertices_sit_on_their_true_branch(tree):
     away = t.truth.interior_mask(t.V)
     agree = np.mean(mapped[b.vertex_branch][away] == nearest_branch[away])
     assert agree >= 0.97, agree
-    # every branch holds vertices, and the root distance grows from the root end
+    # every branch holds vertices; every junction lies within a parent radius of a true one
     assert np.all(np.bincount(b.vertex_branch, minlength=len(b.parent)) > 0)
-    assert np.mean(b.root_distance[ends[b.root].vertices]) < 1e-6 * np.ptp(t.V)
+    J, R = t.truth.junctions
+    for k in set(b.parent.tolist()) - {-1}:
+        i = int(np.argmin(np.linalg.norm(J - b.junctions[k], axis=1)))
+        assert np.linalg.norm(J[i] - b.junctions[k]) < R[i]
 
 
 def test_real_y_splits_into_a_trunk_and_two_iliacs():

@@ -289,12 +289,12 @@ def test_non_manifold_edge_error_then_repair(tube, tube_fit):
     assert_same_fit(fit_generalized_cylinder(V2, F2), tube_fit)
 
 
-def test_inconsistent_orientation_error_then_repair(tube, tube_fit):
+def test_inconsistent_orientation_is_mended_or_repaired(tube, tube_fit):
+    """Since issue #34 a winding fault alone is mended by the fit (logged); clean_mesh repairs it too."""
     F = tube.F.copy()
     F[::3] = F[::3, ::-1]
-    with pytest.raises(InvalidMeshError) as ei:
-        vessel_ends(tube.V, F)
-    assert "not consistently oriented" in one_line(ei) and "clean_mesh" in str(ei.value)
+    assert len(vessel_ends(tube.V, F)) == 2
+    assert_same_fit(fit_generalized_cylinder(tube.V, F), tube_fit)
     V2, F2, rep = clean_mesh(tube.V, F)
     assert rep.faces_flipped > 0
     assert_same_fit(fit_generalized_cylinder(V2, F2), tube_fit)

@@ -1,43 +1,48 @@
 """Branch decomposition of a vessel tree: which end hangs off which junction, and each vertex's branch.
 
-The first stage of a tree fit (issue #13): from the ends of a branching mesh
-(:func:`vesselgp.vessel_ends`) and a root end, it finds the tree's topology and
-splits the surface into branches, without fitting any axis.
+The first stage of a tree fit (issues #13, #34): from the ends of a branching mesh
+(:func:`vesselgp.vessel_ends`) and a root end, it finds the tree's topology, its
+junctions and a first axis of every branch, and splits the surface into branches.
 
-* **Distances.** Heat-method geodesic distances
-  (:class:`vesselgp.mesh.geodesic.GeodesicDistances`, one precomputation)
-  from every end's vertices, solved together.
-* **Topology.** For tips ``a`` and ``b``, the length of the path they share
-  from the root is the Gromov product
-  ``g(a, b) = (d(root, a) + d(root, b) - d(a, b)) / 2``; on a tree it is the
-  geodesic distance from the root to their junction. Tips are merged bottom-up
-  by the largest shared length (average linkage), which gives a rooted binary
-  tree: a trifurcation comes out as two junctions close together.
-* **Vertices.** Vertex ``v`` follows the root-to-tip path it is nearest to,
-  the tip ``j`` of least geodesic excess ``d(root, v) + d(j, v) - d(root, j)``.
-  Along that path it sits on the first branch whose distal junction (shared
-  length) is farther from the root than ``d(root, v)``: a trunk vertex is
-  nearer the root than the first junction whichever side of the trunk it is
-  on, and the surface around a junction, up to the crotch, goes to the parent
-  branch. (A threshold on the excess, in tip radii, would hand the far side
-  of a wide trunk near a junction to a child.)
+* **Centre lines.** The medial lines from the root to every other end
+  (:func:`vesselgp.centerlines.centerlines`, VMTK's construction on the internal
+  Voronoi diagram): they cross junction zones, sacs and bulbs through the middle of
+  the lumen and never leave it, whatever the branch angles or calibres.
+* **Where two lines part.** Lines ``a`` and ``b`` run together from the root; ``a`` has
+  left ``b`` at its first point farther than ``tolerances.TREE_SPLIT`` of its inscribed
+  radius from ``b``, and their junction is the last point before that within
+  ``TREE_MEET`` radii of ``b`` (VMTK's branch splitting uses the same inscribed-sphere
+  "tube" test). The arc length to it, averaged over the two lines, is the pair's shared
+  length; tips are merged bottom-up by the largest shared length (average linkage), which
+  gives a rooted binary tree.
+* **Junction zones.** A branch between two junctions shorter than
+  ``TREE_JUNCTION_MERGE`` inscribed radii of its parent is dropped and its children hang
+  off the first junction: a trifurcation, or three arch branches leaving within one
+  radius, is one junction with three or four children.
+* **Vertices.** Each branch's first axis is its part of one centre line, a child's
+  starting where its line leaves the junction zone (the inscribed spheres of the parent's
+  and the siblings' lines: the surface there belongs to the parent); a vertex belongs to
+  the branch whose first axis passes nearest to it.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
+from . import tolerances as tol
 from ._validate import as_mesh
+from .centerlines import centerlines
+from .curves import chord_length, resample_arclength
 from .errors import EndsError
-from .mesh.geodesic import GeodesicDistances
 
 __all__ = ["Branching", "branch_decomposition"]
 
 
 @dataclass(frozen=True)
 class Branching:
-    """The topology of a vessel tree and the branch of every vertex.
+    """The topology of a vessel tree, its junctions, first axes and the branch of every vertex.
 
     Branch 0 is the trunk, from the root end to the first junction. Every
     other branch runs from its parent's junction to a junction or to a tip.
@@ -52,22 +57,37 @@ class Branching:
         The end indices reached through each branch (one for a leaf).
     end_branch : dict of int to int
         The leaf branch of each tip end.
-    shared_length : (b,) float64
-        Geodesic distance from the root to each branch's distal junction
-        (the Gromov product of its tips); for a leaf, to its tip.
+    junctions : (b, 3) float64
+        The junction at the distal end of each branch (on its centre line); NaN for a leaf.
+    junction_radius : (b,) float64
+        The inscribed-sphere radius there (NaN for a leaf).
+    lines : tuple of (k_i, 3) float64
+        Each branch's first axis: its part of a centre line, from the root end's centre (the
+        trunk) or from where it leaves its junction zone, to its distal junction or to its
+        tip's centre.
+    line_radius : tuple of (k_i,) float64
+        The inscribed-sphere radius along each first axis.
+    lead_in : tuple of (l_i, 3) float64
+        A child's centre line through its junction zone, from its parent's junction to where its
+        first axis starts (the trunk's is empty): the branch's axis there, inside the lumen
+        whatever the branch angle.
     vertex_branch : (n,) int64
         The branch of each vertex.
-    root_distance : (n,) float64
-        Geodesic distance of each vertex from the root end.
+    centerlines : Centerlines
+        The medial lines the decomposition was read from.
     """
 
     root: int
     parent: np.ndarray
     tips: tuple
     end_branch: dict
-    shared_length: np.ndarray
+    junctions: np.ndarray
+    junction_radius: np.ndarray
+    lines: tuple
+    line_radius: tuple
+    lead_in: tuple
     vertex_branch: np.ndarray
-    root_distance: np.ndarray
+    centerlines: object
 
     @property
     def children(self):
@@ -109,8 +129,124 @@ def _agglomerate(tips, share):
     return nodes
 
 
-def branch_decomposition(V, F, ends, root=None, *, geodesics=None):
-    """Topology of a vessel tree and the branch of each vertex (see the module notes).
+def _parting(Pa, Ra, Pb):
+    """Index on line ``a`` of its junction with line ``b`` (see the module notes)."""
+    d = cKDTree(Pb).query(Pa)[0]
+    far = np.flatnonzero(d > tol.TREE_SPLIT * Ra)
+    if not far.size:  # a runs inside b all the way
+        return len(Pa) - 1
+    near = np.flatnonzero(d[:far[0]] <= tol.TREE_MEET * Ra[:far[0]])
+    return int(near[-1]) if near.size else 0
+
+
+class _Topology:
+    """The agglomerated tips as a tree of nodes with merged junction zones (see the module notes)."""
+
+    def __init__(self, lines, tips):
+        self.P = {t: p for t, p in zip(tips, lines.points)}
+        self.R = {t: r for t, r in zip(tips, lines.radius)}
+        self.arc = {t: chord_length(p) for t, p in self.P.items()}
+        self.part = {(a, b): _parting(self.P[a], self.R[a], self.P[b]) for a in tips for b in tips if a != b}
+        share = {(a, b): 0.5 * (self.arc[a][self.part[(a, b)]] + self.arc[b][self.part[(b, a)]])
+                 for a in tips for b in tips if a != b}
+        share.update({(t, t): float(self.arc[t][-1]) for t in tips})
+        nodes = _agglomerate(list(tips), share)
+        self.top = len(nodes) - 1
+        self.rep = {k: n[0][0] for k, n in enumerate(nodes)}  # the line a node's branch is read from
+        self.tips = {k: n[0] for k, n in enumerate(nodes)}
+        self.kids = {k: list(n[1]) for k, n in enumerate(nodes)}
+        self._merge()
+
+    def junction_index(self, k):
+        """Index on node ``k``'s line of its distal junction (the first of its children's partings)."""
+        return min(self.part[(self.rep[k], self.rep[c])] for c in self.kids[k] if self.rep[c] != self.rep[k])
+
+    def start_index(self, k, parent):
+        """Index on node ``k``'s line nearest to its parent's junction (0 for the top node)."""
+        if parent < 0:
+            return 0
+        J = self.P[self.rep[parent]][self.junction_index(parent)]
+        return int(np.argmin(np.linalg.norm(self.P[self.rep[k]] - J, axis=1)))
+
+    def _merge(self):
+        """Drop the internal branches shorter than ``TREE_JUNCTION_MERGE`` of their parent's radius."""
+        changed = True
+        while changed:
+            changed = False
+            for k in list(self.kids):
+                for c in self.kids[k]:
+                    if not self.kids[c]:
+                        continue
+                    t = self.rep[c]
+                    length = self.arc[t][self.junction_index(c)] - self.arc[t][self.start_index(c, k)]
+                    jr = self.R[self.rep[k]][self.junction_index(k)]
+                    if length < tol.TREE_JUNCTION_MERGE * jr:
+                        self.kids[k] = [x for x in self.kids[k] if x != c] + self.kids[c]
+                        changed = True
+                        break
+                if changed:
+                    break
+
+
+def _covered(P, others):
+    """Whether each point of ``P`` lies inside an inscribed sphere of the lines ``others`` ((points, radii) pairs)."""
+    Q = np.vstack([q for q, _ in others])
+    Rq = np.concatenate([r for _, r in others]) * tol.TREE_CHILD_CLEAR
+    d = np.linalg.norm(P[:, None, :] - Q[None, :, :], axis=2)
+    return (d < Rq[None, :]).any(axis=1)
+
+
+def _branch_line(topo, k, parent):
+    """First axis (points, radii) of node ``k``'s branch, its distal junction and inscribed radius there
+    (x, y, z, r; NaN for a leaf) and its lead-in.
+
+    A child's first axis starts where its line leaves the junction zone: at its first point
+    outside the inscribed spheres (times ``TREE_CHILD_CLEAR``) of the parent's line up to the
+    junction and of its siblings' lines from it.
+    """
+    t = topo.rep[k]
+    P, R = topo.P[t], topo.R[t]
+    i0 = topo.start_index(k, parent)
+    i1 = topo.junction_index(k) if topo.kids[k] else len(P) - 1
+    J = np.append(P[i1], R[i1]) if topo.kids[k] else np.full(4, np.nan)
+    lead = np.zeros((0, 3))
+    if parent >= 0:
+        tp = topo.rep[parent]
+        jp = topo.junction_index(parent)
+        others = [(topo.P[tp][:jp + 1], topo.R[tp][:jp + 1])]
+        for c in topo.kids[parent]:
+            if c != k:
+                ic = topo.start_index(c, parent)
+                others.append((topo.P[topo.rep[c]][ic:], topo.R[topo.rep[c]][ic:]))
+        free = np.flatnonzero(~_covered(P[i0:i1 + 1], others))
+        start = i0
+        i0 = max(min(i0 + int(free[0]) if free.size else i1, i1 - 1), 0)
+        lead = np.vstack([topo.P[tp][jp], P[start:i0 + 1]])
+    i0 = max(min(i0, i1 - 1), 0)
+    return P[i0:i1 + 1], R[i0:i1 + 1], J, lead
+
+
+def _vertex_branch(V, lines, radius):
+    """The branch of each vertex: the one whose first axis is nearest in its own inscribed radii.
+
+    Each branch's nearest dense sample (by distance) gives the vertex's distance over the
+    inscribed radius there; the least ratio wins. Plain distance gave the wall of a wide
+    trunk around a thin branch's mouth to the thin branch, whose line passes closer to it
+    than the trunk's own.
+    """
+    ratio = np.empty((len(V), len(lines)))
+    for b, (P, R) in enumerate(zip(lines, radius)):
+        arc = chord_length(P)
+        k = int(np.clip(np.ceil(arc[-1] / (0.25 * float(np.min(R)))), 2, tol.TREE_LINE_SAMPLES)) + 1
+        Q = resample_arclength(P, k)
+        Rq = np.interp(chord_length(Q) * (arc[-1] / max(chord_length(Q)[-1], np.finfo(float).tiny)), arc, R)
+        d, i = cKDTree(Q).query(V)
+        ratio[:, b] = d / Rq[i]
+    return np.argmin(ratio, axis=1).astype(np.int64)
+
+
+def branch_decomposition(V, F, ends, root=None, *, loops=None, lines=None):
+    """Topology of a vessel tree, its junctions and first axes, and the branch of each vertex.
 
     Parameters
     ----------
@@ -120,8 +256,10 @@ def branch_decomposition(V, F, ends, root=None, *, geodesics=None):
         Every end of the tree (:func:`vesselgp.vessel_ends`), at least three.
     root : int, optional
         The root end; default the widest.
-    geodesics : GeodesicDistances, optional
-        The heat-method solver of this ``V, F``, to reuse its factorisation; default built here.
+    loops : sequence of (k,) int64, optional
+        The mesh's boundary loops (default from libigl).
+    lines : Centerlines, optional
+        The medial centre lines from ``root`` (default :func:`vesselgp.centerlines.centerlines`).
 
     Returns
     -------
@@ -131,6 +269,8 @@ def branch_decomposition(V, F, ends, root=None, *, geodesics=None):
     ------
     EndsError
         Fewer than three ends, or a root index out of range.
+    NotTubularError
+        The surface encloses no lumen or an end is not connected to the root through it.
 
     Examples
     --------
@@ -146,38 +286,23 @@ def branch_decomposition(V, F, ends, root=None, *, geodesics=None):
         raise EndsError(f"a tree needs at least three ends, the mesh has {len(ends)}; "
                         "fit a single vessel with vesselgp.fit_generalized_cylinder")
     root = root_end(ends, root)
-    geo = GeodesicDistances(V, F) if geodesics is None else geodesics.check(V, F)
-    dist = list(geo.from_each([e.vertices for e in ends]).T)  # one solve for all ends
-    tips = [j for j in range(len(ends)) if j != root]
-    to_tip = {j: float(np.mean(dist[root][ends[j].vertices])) for j in tips}
-    share = {(a, b): 0.5 * (to_tip[a] + to_tip[b] - float(np.mean(dist[a][ends[b].vertices])))
-             for a in tips for b in tips if a != b}
-    share.update({(j, j): to_tip[j] for j in tips})
-    nodes = _agglomerate(tips, share)
-    # branches: the top node is the trunk (0); then each node below, parents before children
-    order, parent, stack = [], [], [(len(nodes) - 1, -1)]
-    while stack:
-        k, p = stack.pop()
-        order.append(k)
-        parent.append(p)
-        stack.extend((c, len(order) - 1) for c in reversed(nodes[k][1]))
-    branch_of = {k: i for i, k in enumerate(order)}
-    # each vertex follows the path it is nearest to (least geodesic excess), and sits on the
-    # first branch of that path whose distal junction is farther from the root than itself
-    excess = np.stack([dist[root] + dist[j] - to_tip[j] for j in tips], axis=1)
-    nearest = np.argmin(excess, axis=1)
-    vb = np.zeros(len(V), np.int64)
-    for c, j in enumerate(tips):
-        leaf = branch_of[next(k for k in order if nodes[k][0] == (j,))]
-        path = [leaf]
-        while parent[path[-1]] >= 0:
-            path.append(parent[path[-1]])
-        path = path[::-1]
-        reach = np.array([nodes[order[p]][2] for p in path[:-1]])
-        m = nearest == c
-        vb[m] = np.asarray(path)[np.searchsorted(reach, dist[root][m], side="left")]
+    if lines is None:
+        lines = centerlines(V, F, ends, root, loops=loops)
+    topo = _Topology(lines, lines.tips)
+    order, parent, stack = [], [], [(topo.top, -1, -1)]
+    while stack:  # parents before children
+        k, pk, pb = stack.pop()
+        order.append((k, pk))
+        parent.append(pb)
+        b = len(order) - 1
+        stack.extend((c, k, b) for c in reversed(topo.kids[k]))
+    pieces = [_branch_line(topo, k, pk) for k, pk in order]
+    line_pts, line_r = tuple(p[0] for p in pieces), tuple(p[1] for p in pieces)
     return Branching(
-        root=root, parent=np.asarray(parent, np.int64), tips=tuple(tuple(nodes[k][0]) for k in order),
-        end_branch={nodes[k][0][0]: branch_of[k] for k in order if len(nodes[k][0]) == 1},
-        shared_length=np.array([nodes[k][2] for k in order]), vertex_branch=vb, root_distance=dist[root],
+        root=root, parent=np.asarray(parent, np.int64), tips=tuple(tuple(topo.tips[k]) for k, _ in order),
+        end_branch={topo.tips[k][0]: b for b, (k, _) in enumerate(order) if not topo.kids[k]},
+        junctions=np.array([p[2][:3] for p in pieces]).reshape(-1, 3),
+        junction_radius=np.array([p[2][3] for p in pieces]), lines=line_pts, line_radius=line_r,
+        lead_in=tuple(p[3] for p in pieces),
+        vertex_branch=_vertex_branch(V, line_pts, line_r), centerlines=lines,
     )

@@ -54,6 +54,7 @@ from .axis import (Axis, AxisStack, circle_fit_solve, circle_fit_sums, hat, inte
 from .curves import _chords, _resample_arclength, chord_length, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError
 from .inside import check_axis_bend, check_axis_inside
+from .mesh.orient import orient_faces
 from .mesh import MeshTopology, bbox_diagonal, mesh_scale, mesh_topology, select_ends, vessel_ends
 from .mesh.geodesic import GeodesicDistances
 from .mesh._geometry import voronoi_areas
@@ -492,6 +493,7 @@ def fit_generalized_cylinder(
     True
     """
     V, F = as_mesh(V, F)
+    F, _ = orient_faces(V, F)  # a winding fault alone is mended (logged), not refused
     lam = tol.GC_LAMBDA if lam is None else float(lam)
     mu = tol.GC_MU if mu is None else float(mu)
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
@@ -526,10 +528,12 @@ def fit_generalized_cylinder(
     return gc
 
 
-def check_cylinder_bend(gc, scale):
-    """:func:`vesselgp.inside.check_axis_bend` of a fitted cylinder's dense axis (mesh size ``scale``)."""
+def check_cylinder_bend(gc, scale, skip_start=0.0):
+    """:func:`vesselgp.inside.check_axis_bend` of a fitted cylinder's dense axis (mesh size ``scale``),
+    past the first ``skip_start`` of its arc length (a tree branch's junction zone, led in along the
+    lumen's centre line: anatomy, not the fit)."""
     check_axis_bend(gc.dense_s, gc.length, gc.dense_frames[:, 0], gc.radius_at(gc.dense_s),
-                    points=gc.dense_points, scale=scale)
+                    points=gc.dense_points, scale=scale, skip_start=skip_start)
 
 
 def _spread_to_neighbours(adjacency, sub, s_sub):

@@ -261,7 +261,7 @@ def check_axis_inside(V, F, s, points, radii, *, area=None, loops=None, ends_mar
     )
 
 
-def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends_margin=None):
+def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends_margin=None, skip_start=0.0):
     """Raise :class:`NotTubularError` where the axis bends tighter than its radius.
 
     The curvature is ``|dT/ds|`` of the unit tangents by central differences; the
@@ -286,6 +286,9 @@ def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends
     ends_margin : float, optional
         Samples within this arc length of either end are not checked (an axis end
         turns into a cap or a junction). Default: one mean radius.
+    skip_start : float, optional
+        Arc length from the start that is not checked either, before the margin (a tree
+        branch's junction zone, whose axis is the lumen's centre line, not a fit).
 
     Raises
     ------
@@ -311,7 +314,7 @@ def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends
     kappa = np.linalg.norm(np.gradient(np.asarray(tangents, np.float64), arc, axis=0), axis=1)
     radii = np.asarray(radii, np.float64)
     margin = float(np.mean(radii)) if ends_margin is None else float(ends_margin)
-    keep = (arc >= margin) & (float(length) - arc >= margin)
+    keep = (arc >= margin + float(skip_start)) & (float(length) - arc >= margin)
     bad = keep & (kappa * radii >= tol.GC_MAX_BEND)
     if not bad.any():
         return

@@ -476,10 +476,36 @@ GEODESIC_SOLVE_COLUMNS = 8
 BRANCH_PATH_RADII = 2.0
 
 
+# --- medial centre lines (vesselgp.centerlines) ---
+#: At most this many surface vertices (spread evenly) span the Delaunay tessellation whose inside
+#: circumcentres are the Voronoi vertices (qhull's time grows a little faster than linearly).
+MEDIAL_MAX_POINTS = 16000
+#: A tetrahedron is flat (no circumcentre) when 2 b.(c x d) is below this times its longest edge cubed.
+MEDIAL_FLAT_TET = 1e-12
+#: Least cost of a Voronoi edge (length over radius), so that co-spherical tetrahedra (one
+#: circumcentre, zero length) still join their neighbours.
+MEDIAL_MIN_EDGE_COST = 1e-9
+#: A centre line is resampled every this many inscribed radii ...
+MEDIAL_SPACING = 0.25
+#: ... and smoothed by this many passes of the [1, 2, 1] / 4 filter (sigma about 0.5 radius).
+MEDIAL_SMOOTHING_PASSES = 8
+
+# --- tree topology from the centre lines (vesselgp.branches) ---
+#: Two centre lines have parted where one is farther than this many of its inscribed radii from the other...
+TREE_SPLIT = 0.5
+#: ... and their junction is the last point before that within this many radii of the other line.
+TREE_MEET = 0.3
+#: Junctions closer together along the parent than this many of its inscribed radii are one junction
+#: zone: the short branch between them is dropped and its children hang off the first junction.
+TREE_JUNCTION_MERGE = 1.0
+#: A child branch's own wall starts where its centre line leaves the inscribed spheres, scaled by
+#: this, of the parent's and its siblings' lines (inside, the surface is the junction zone's).
+TREE_CHILD_CLEAR = 1.0
+
 # ----------------------------------------------------------------------------- vessel trees (vesselgp.tree)
 
-#: Bands of root distance used to estimate a branch's radius before its first axis.
-TREE_INIT_BANDS = 24
+#: Dense samples of a branch's medial first axis, for each vertex's first parameter on it.
+TREE_LINE_SAMPLES = 401
 #: A branch end's line (towards its junction) is the chord of its axis over this many radii ...
 TREE_JUNCTION_CHORD = 3.0
 #: ... starting this many radii from the end (the last stretch is bent by the junction's bulge;

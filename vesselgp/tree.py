@@ -5,18 +5,19 @@ generalized cylinders (paper Section 2.1-2.2, applied branch by branch):
 
 1. **Ends and topology.** Every end (:func:`vesselgp.vessel_ends`), the root
    (default the widest) and the branch decomposition
-   (:func:`vesselgp.branches.branch_decomposition`: heat geodesics from every
-   end, tips merged by their shared path length, each vertex's branch).
-2. **One fit per branch, on its own vertices.** The initial axis is the
-   area-weighted centroid of bands of geodesic distance from the root (Eq. 1
-   with indicator weights on those bands); the fixed point of Eq. 3 and Eq. 5
-   is then iterated exactly as for a single vessel (circle-fit centres, robust
-   reweighting that drops the junction bulges). The shared trunk is fitted
-   once, not once per path.
+   (:func:`vesselgp.branches.branch_decomposition`: the lumen's medial centre lines
+   from the root to every end, :func:`vesselgp.centerlines.centerlines`, give the
+   topology, the junction zones, each branch's first axis and each vertex's branch).
+2. **One fit per branch, on its own vertices.** The fixed point of Eq. 3 and Eq. 5
+   starts from the branch's centre line and is iterated exactly as for a single
+   vessel (circle-fit centres, robust reweighting that drops the junction bulges).
+   The shared trunk is fitted once, not once per path.
 3. **Junctions.** A junction is the point closest, in least squares, to the
    lines continuing the parent's distal end and the children's proximal ends
-   (centre lines of a bifurcation meet at a corner). Each branch axis is
-   trimmed or extended to its junction(s).
+   (centre lines of a bifurcation meet at a corner), held within the inscribed
+   sphere where the centre lines part. The parent's axis is linked to it; each
+   child is led in from it along its centre line through the junction zone (a
+   straight link cut through the wall where a thin branch leaves a wide trunk).
 4. **Frames.** The trunk's RMF starts as a single vessel's; each child's RMF
    starts from its parent's frame at the junction turned by the least rotation
    onto the child's tangent (the discrete RMF step, paper Section 1), so angles
@@ -28,7 +29,8 @@ generalized cylinders (paper Section 2.1-2.2, applied branch by branch):
    (:func:`vesselgp.inside.check_axis_inside`): an axis that leaves the lumen
    or grazes the wall raises :class:`vesselgp.NotTubularError`; so does a branch
    axis that bends tighter than its radius (:func:`vesselgp.inside.check_axis_bend`;
-   a path turns through its junctions, so only its branches are held to it).
+   a path turns through its junctions, so only its branches are held to it, past
+   their junction zones: there the axis is the centre line, anatomy, not a fit).
 """
 from __future__ import annotations
 
@@ -47,9 +49,9 @@ from .errors import EndsError, NotTubularError
 from .fit import (check_cylinder_bend, checked_mesh, cylinder_from_axis,
                   FitProblem, fit_generalized_cylinder, fixed_points)
 from .inside import SurfaceWinding, check_axis_inside
+from .mesh.orient import orient_faces
 from .mesh import vessel_ends
 from .mesh._geometry import voronoi_areas
-from .mesh.geodesic import GeodesicDistances
 from .rotations import minimal_rotation
 
 log = logging.getLogger(__name__)
@@ -90,6 +92,10 @@ class VesselTree:
     vertex_branch : (n,) int64
         The branch of each vertex (the surface around a junction belongs to
         the parent).
+    junction_zone : (b,) float64
+        Arc length from each branch's start over which its axis is led in along the
+        lumen's centre line through its parent's junction zone (0 for the trunk): there the
+        axis is the centre line, not the tube model's fit.
     """
 
     ends: tuple
@@ -101,6 +107,7 @@ class VesselTree:
     paths: tuple
     path_branches: tuple
     vertex_branch: np.ndarray
+    junction_zone: np.ndarray = None
 
     def path_to(self, end):
         """The path from the root to end index ``end``.
@@ -136,75 +143,25 @@ class _RawBranch:
     rscale: float
 
 
-def _bands(V, area, phi, K0):
-    """Area-weighted centroids of K0 bands of ``phi`` in [0, 1], their mean phi and mean distance."""
-    band = np.minimum((phi * K0).astype(np.int64), K0 - 1)
-    wsum = np.bincount(band, weights=area, minlength=K0)
-    cen = np.stack([np.bincount(band, weights=area * V[:, d], minlength=K0) for d in range(3)], 1)
-    ph = np.bincount(band, weights=area * phi, minlength=K0)
-    ok = wsum > 0
-    cen, ph = cen[ok] / wsum[ok, None], ph[ok] / wsum[ok]
-    dist = np.linalg.norm(V - cen[np.searchsorted(np.flatnonzero(ok), band).clip(0, ok.sum() - 1)], axis=1)
-    rad = np.bincount(band, weights=area * dist, minlength=K0)[ok] / wsum[ok]
-    return cen, ph, rad
+def _branch_problem(V, area, line, idx, caps, start, end):
+    """The Eq. 3 / Eq. 5 fixed point (:class:`FitProblem`) of one branch's vertices, started on its
+    medial first axis ``line`` (:class:`vesselgp.branches.Branching`).
 
-
-def _behind(V, weights, ends):
-    """``weights`` (n,) zeroed on the vertices beyond the plane of any of ``ends`` (a copy).
-
-    A branch's initial axis is a polyline through band centroids, pinned to the centres of
-    its mesh ends. A rounded tip's centre is its dome's (sphere) centre, so bands of the dome
-    beyond it put centroids past the end and started the axis with a hairpin there: the
-    first radii near the tip came out a quarter short, and the outlier test (Eq. 5) then took
-    four to six more iterations to let the wall there back in (a 27k tree's leaf branches: 9
-    to 11 iterations, now 5). An end's plane passes through its centre across its
-    ``direction``, taken in the sense that puts the area centroid of ``weights`` behind it (an
-    end given with its direction reversed cuts the same side).
-
-    The single-path fit (:func:`vesselgp.fit_generalized_cylinder`) starts from a harmonic
-    field instead; the same cut there made no difference at its tips and, on paths through
-    a junction, took 3-5 more iterations, so it is not used there.
-    """
-    out = weights.copy()
-    centroid = weights @ V / weights.sum()
-    for e in ends:
-        h = (V - e.center) @ e.direction
-        out[h * np.sign((centroid - e.center) @ e.direction) < 0] = 0.0
-    return out
-
-
-def _branch_problem(V, area, rd, idx, caps, start, end):
-    """The Eq. 3 / Eq. 5 fixed point (:class:`FitProblem`) of one branch's vertices, initialised on
-    bands of root distance.
-
-    ``start`` / ``end`` are the mesh ends (:class:`vesselgp.VesselEnd`) to pin the initial axis
-    to (the root and a tip), or None at a junction side. The bands take only the wall behind a
-    pinned end's plane (:func:`_behind`: a tip's dome would start the axis with a hairpin).
+    ``start`` / ``end`` are the mesh ends (:class:`vesselgp.VesselEnd`) the axis is pinned to
+    (the root and a tip, where the line starts and ends at the end's centre), or None at a
+    junction side, which moves with its data. The radius scale is the median distance of the
+    branch's wall to the line; each vertex starts at its nearest point on it.
     """
     Vb, ab = V[idx], np.where(caps, 0.0, area[idx])
-    r = rd[idx]
-    lo, hi = float(r[ab > 0].min()), float(r[ab > 0].max())
-    if not hi > lo:
-        raise NotTubularError("a branch of the tree has no length; check the mesh (vesselgp.clean_mesh)")
-    phi = np.clip((r - lo) / (hi - lo), 0.0, 1.0)
-    behind = _behind(Vb, ab, [e for e in (start, end) if e is not None])
-    _, _, rad = _bands(Vb, behind, phi, tol.TREE_INIT_BANDS)
-    rscale = float(np.median(rad))
-    K0 = int(np.clip((hi - lo) / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
-    cen, ph, _ = _bands(Vb, behind, phi, K0)
-    pts, pv = [cen], [ph]
-    if start is not None:
-        pts, pv = [start.center[None]] + pts, [[0.0]] + pv
-    if end is not None:
-        pts, pv = pts + [end.center[None]], pv + [[1.0]]
-    pts, pv = np.vstack(pts), np.concatenate(pv)
-    arc = chord_length(pts)
-    L0 = float(arc[-1])
-    s0 = np.interp(phi, pv, arc / L0)
+    L0 = float(chord_length(line)[-1])
+    if not L0 > 0 or not (ab > 0).any():
+        raise NotTubularError("a branch of the tree has no length or no wall; check the mesh (vesselgp.clean_mesh)")
+    dense = resample_arclength(line, tol.TREE_LINE_SAMPLES)
+    dist, near = cKDTree(dense).query(Vb)
+    rscale = float(np.median(dist[ab > 0]))
+    s0 = near / (len(dense) - 1.0)
     K = int(np.clip(L0 / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
-    # only the ends at a mesh end's centre are pinned: a junction side starts at the band centroid of
-    # the junction's bulge and must move (pinned there, it bent the axis 1-4 % r out to 3 radii)
-    return FitProblem(resample_arclength(pts, K), s0, Vb, ab, caps, rscale, L0,
+    return FitProblem(resample_arclength(line, K), s0, Vb, ab, caps, rscale, L0,
                       pin=(start is not None, end is not None),
                       mirror=tuple(e is not None and e.kind != "rounded" for e in (start, end)))
 
@@ -238,30 +195,23 @@ def _end_line(nodes, rscale, at_start):
     return p0, d / np.linalg.norm(d), (q0 - q1) / np.linalg.norm(q0 - q1)
 
 
-def _junction_point(parent_line, child_lines, reach, rscale):
-    """Where the children's lines come closest to the parent's, on the parent's line beyond its point.
+def _junction_point(parent_line, child_lines, J0, R0):
+    """Where the branch axes' continuations meet, held within the junction zone.
 
-    The junction is ``p0 + t d`` on the parent's end line with ``0 <= t``:
-    least squares over the distances to the children's lines, pulled weakly
-    (``TREE_JUNCTION_ANCHOR``) to ``t = reach``, where the parent's fitted axis
-    ended (so a shallow bifurcation, whose lines are nearly parallel, stays
-    solvable), and at most ``TREE_JUNCTION_REACH`` radii beyond that.
+    The point closest in least squares to the lines continuing the parent's distal end and
+    the children's proximal ends (centre lines of a bifurcation meet at a corner), weakly
+    pulled (``TREE_JUNCTION_ANCHOR``) to the centre lines' junction ``J0``; a result farther
+    than the inscribed radius ``R0`` there from ``J0`` is brought back onto that sphere (the
+    lines of a branch leaving along its parent, nearly parallel, meet anywhere).
     """
-    p0, d, _ = parent_line
-    num, den = tol.TREE_JUNCTION_ANCHOR * reach, tol.TREE_JUNCTION_ANCHOR
-    for a, dc, _ in child_lines:
+    A = tol.TREE_JUNCTION_ANCHOR * np.eye(3)
+    b = tol.TREE_JUNCTION_ANCHOR * J0
+    for a, dc, _ in [parent_line] + list(child_lines):
         P = np.eye(3) - np.outer(dc, dc)
-        num += d @ P @ (a - p0)
-        den += d @ P @ d
-    t = float(np.clip(num / den, 0.0, reach + tol.TREE_JUNCTION_REACH * rscale))
-    J = p0 + t * d
-    for a, dc, _ in child_lines:  # each child's line point must lie beyond the junction, along the child
-        if (a - J) @ dc >= 0:
-            raise NotTubularError(
-                f"the branches meeting near ({', '.join(f'{x:.4g}' for x in J)}) do not form a junction "
-                "(a child starts behind it); the mesh may have an undetected end or a side branch "
-                "shorter than its radius")
-    return J
+        A, b = A + P, b + P @ a
+    J = np.linalg.solve(A, b)
+    off = np.linalg.norm(J - J0)
+    return J if off <= R0 else J0 + (J - J0) * (R0 / off)
 
 
 def _hermite(a, ta, b, tb, k):
@@ -295,24 +245,63 @@ def _attach(nodes, J, line, rscale, at_start):
     return np.vstack([link[::-1], keep]) if at_start else np.vstack([keep, link])
 
 
-def _junctions(raw, parent):
-    """Junction of every branch with children, and each branch's nodes trimmed/extended to its junctions."""
+def _led_in(nodes, lead, line, rscale):
+    """A child's nodes from the line's point ``p0`` on, led in from its junction along its centre line.
+
+    ``lead`` runs from the junction through the junction zone (:class:`vesselgp.branches.Branching`,
+    ``lead_in``); its points up to ``TREE_PATH_ROUNDING`` radii before ``p0`` (along the axis's
+    direction there) are kept, then a cubic Hermite curve joins them to ``p0`` with the axis's own
+    direction. A straight link from the junction cut through the wall where a branch leaves a wide
+    trunk at a steep angle (the arch's branches, the renals). Returns the nodes and the arc length
+    of the led-in part (up to ``p0``): the junction zone, anatomy rather than a fit.
+    """
+    p0, _, t_out = line
+    keep = nodes[(nodes - p0) @ t_out < 0]
+    if len(keep) < 2:
+        raise NotTubularError("a branch of the tree is shorter than its junction zone; "
+                              "the mesh may have a side bulge detected as an end (see vesselgp.vessel_ends)")
+    before = lead[(lead - p0) @ t_out > tol.TREE_PATH_ROUNDING * rscale]
+    if not len(before):
+        before = lead[:1]
+    a = before[-1]
+    ta = before[-1] - before[-2] if len(before) > 1 else p0 - a
+    if not np.linalg.norm(p0 - a) > 0 or not np.linalg.norm(ta) > 0:
+        out = np.vstack([before[:-1], keep])
+    else:
+        k = int(np.ceil(np.linalg.norm(p0 - a) / (tol.GC_NODE_SPACING * rscale))) + 2
+        out = np.vstack([before[:-1], _hermite(a, ta / np.linalg.norm(ta), p0, -t_out, k)[:-1], keep])
+    return out, float(chord_length(out)[len(out) - len(keep)])
+
+
+def _junctions(raw, parent, junctions, junction_radius, lead_in):
+    """The junction points, their branches, each branch's nodes joined to its junctions (:func:`_attach`,
+    :func:`_led_in`) and the arc length of its junction zone from its start (0 for the trunk).
+
+    A junction is where the branch axes' continuations meet (:func:`_junction_point`), within
+    the inscribed sphere of the centre lines' junction (:class:`vesselgp.branches.Branching`:
+    where the medial lines part); several children leaving within one junction zone all join
+    the same point.
+    """
     nodes = [r.nodes for r in raw]
+    zone = np.zeros(len(raw))
     J, Jb = [], []
     for b in range(len(raw)):
         kids = np.flatnonzero(parent == b)
         if not kids.size:
             continue
-        lines = [_end_line(raw[b].nodes, raw[b].rscale, at_start=False)]
-        lines += [_end_line(raw[c].nodes, raw[c].rscale, at_start=True) for c in kids]
-        reach = float((raw[b].nodes[-1] - lines[0][0]) @ lines[0][1])
-        Jp = _junction_point(lines[0], lines[1:], reach, raw[b].rscale)
-        nodes[b] = _attach(nodes[b], Jp, lines[0], raw[b].rscale, at_start=False)
-        for c, line in zip(kids, lines[1:]):
-            nodes[c] = _attach(nodes[c], Jp, line, raw[c].rscale, at_start=True)
+        pline = _end_line(raw[b].nodes, raw[b].rscale, at_start=False)
+        clines = [_end_line(raw[c].nodes, raw[c].rscale, at_start=True) for c in kids]
+        Jp = _junction_point(pline, clines, junctions[b], junction_radius[b])
+        nodes[b] = _attach(nodes[b], Jp, pline, raw[b].rscale, at_start=False)
+        for c, cl in zip(kids, clines):
+            # from the centre line's point nearest the junction: a line that parted early from its
+            # parent's ran beside it inside the trunk up to there
+            i = int(np.argmin(np.linalg.norm(lead_in[c] - Jp, axis=1)))
+            lead = np.vstack([Jp, lead_in[c][i + 1:]])
+            nodes[c], zone[c] = _led_in(nodes[c], lead, cl, raw[c].rscale)
         J.append(Jp)
         Jb.append(b)
-    return np.array(J).reshape(-1, 3), np.array(Jb, np.int64), nodes
+    return np.array(J).reshape(-1, 3), np.array(Jb, np.int64), nodes, zone
 
 
 # ----------------------------------------------------------------------------- cylinders
@@ -406,8 +395,9 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
         iteration cap), per branch.
     geodesics : GeodesicDistances, optional
         The heat-method solver (:class:`vesselgp.mesh.geodesic.GeodesicDistances`) of ``V``
-        and the faces of ``F`` with an area, to reuse its factorisation (the largest single
-        cost of a tree fit) across fits of one mesh; default built here.
+        and the faces of ``F`` with an area, to reuse its factorisation: a mesh with two ends
+        is fitted as one path, whose data mask uses it. A tree's decomposition runs on the
+        centre lines instead; a solver given for another mesh is refused all the same.
 
     Returns
     -------
@@ -434,11 +424,14 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     ([-1, 0, 0], [(0, 1), (0, 2)], (1, 3))
     """
     V, F = as_mesh(V, F)
+    F, _ = orient_faces(V, F)  # a winding fault alone is mended (logged), not refused
     lam = tol.GC_LAMBDA if lam is None else float(lam)
     mu = tol.GC_MU if mu is None else float(mu)
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
     checked = checked_mesh(V, F)
     topo, Fg, _ = checked
+    if geodesics is not None:
+        geodesics.check(V, Fg)
     ends = _tree_ends(V, F, topo, ends)
     if len(ends) < 2:
         raise EndsError(f"a vessel tree needs at least two ends, the mesh has {len(ends)} "
@@ -449,11 +442,9 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
                                       mesh_ends=ends, geodesics=geodesics)
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
-                          vertex_branch=np.zeros(len(V), np.int64))
+                          vertex_branch=np.zeros(len(V), np.int64), junction_zone=np.zeros(1))
     area = voronoi_areas(V, Fg)
-    if geodesics is None:
-        geodesics = GeodesicDistances(V, Fg, checked.faces_topology, areas=area)
-    br = branch_decomposition(V, Fg, ends, root, geodesics=geodesics)
+    br = branch_decomposition(V, Fg, ends, root, loops=topo.boundary_loops)
     caps = np.zeros(len(V), bool)
     for e in ends:
         if e.kind != "open":
@@ -464,23 +455,25 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
         idx = np.flatnonzero(br.vertex_branch == b)
         start = ends[root] if b == 0 else None
         end = ends[leaf_tip[b]] if b in leaf_tip else None
-        problems.append(_branch_problem(V, area, br.root_distance, idx, caps[idx], start, end))
+        problems.append(_branch_problem(V, area, br.lines[b], idx, caps[idx], start, end))
         ids.append(idx)
     # the branches' fixed points in lock step (one vectorised pass per iteration over all of them)
     fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit")
     raw = [_RawBranch(idx=idx, nodes=it.nodes, s=it.s, it=it, rscale=p.rscale)
            for idx, it, p in zip(ids, fits, problems)]
-    junctions, junction_branch, nodes = _junctions(raw, br.parent)
+    junctions, junction_branch, nodes, zone = _junctions(raw, br.parent, br.junctions, br.junction_radius, br.lead_in)
     branches, axes = _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu)
     paths, path_branches = _paths(V, area, caps, branches, axes, raw, br, root, lam, mu)
     winding = SurfaceWinding(V, F, area, topo.boundary_loops)  # one set of samples for every path
     for p in paths:
         check_axis_inside(V, F, p.s, p.centers, p.radii, winding=winding)
-    for b in branches:  # not the paths: they turn through the junctions by design
-        check_cylinder_bend(b, winding.scale)
+    for b, z in zip(branches, zone):  # not the paths, nor a junction zone: they turn there by design
+        check_cylinder_bend(b, winding.scale, skip_start=z)
     return VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
-                      path_branches=tuple(path_branches), vertex_branch=br.vertex_branch)
+                      path_branches=tuple(path_branches), vertex_branch=br.vertex_branch,
+                      junction_zone=zone * np.array([b.length for b in branches]) / np.maximum(
+                          [chord_length(n)[-1] for n in nodes], np.finfo(float).tiny))
 
 
 def _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu):

@@ -26,6 +26,7 @@ from ._ends_format import bbox_diagonal, end_listing, format_point
 from ._ends_staircase import check_staircase
 from ._ends_tips import extreme_tips, find_tips
 from ._geometry import loop_centroid, vector_area
+from .orient import orient_faces
 from .topology import MeshTopology
 
 __all__ = ["vessel_ends", "VesselEnd", "select_ends"]
@@ -158,7 +159,7 @@ def vessel_ends(V, F, *, topology=None):
     [-1.0, 1.0]
     """
     V, F = as_mesh(V, F)
-    topo = _topology_of(F, len(V), topology)
+    F, topo = orient_faces(V, F, _topology_of(F, len(V), topology))
     N, A = _face_normals(V, F)
     w = topo.edge_lengths(V)
     h = float(np.median(w)) if len(w) else 0.0
