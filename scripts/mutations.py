@@ -39,9 +39,21 @@ MUTATIONS = {
     ),
     "tree_branch_bend_unchecked": (
         "vesselgp/tree.py",
-        "        check_cylinder_bend(b, winding.scale)",
+        "        check_cylinder_bend(b, winding.scale, skip_start=z)",
         "        pass",
         ["tests/test_tree.py"],
+    ),
+    "tree_junction_zone_bend_checked": (
+        "vesselgp/tree.py",
+        "        check_cylinder_bend(b, winding.scale, skip_start=z)",
+        "        check_cylinder_bend(b, winding.scale)",
+        ["tests/test_real_trees.py"],
+    ),
+    "bend_skip_ignored": (
+        "vesselgp/inside.py",
+        "    keep = (arc >= margin + float(skip_start)) & (float(length) - arc >= margin)",
+        "    keep = (arc >= margin) & (float(length) - arc >= margin)",
+        ["tests/test_inside.py"],
     ),
     "circle_fit_regulariser_weight": (
         "vesselgp/axis.py",
@@ -124,15 +136,57 @@ MUTATIONS = {
     ),
     "tree_junction_link_straight": (
         "vesselgp/tree.py",
-        "        link = _hermite(p0, d_out, J, gap / np.linalg.norm(gap), k)",
+        "        link = _hermite(p0, t_out, J, gap / np.linalg.norm(gap), k)",
         "        link = np.vstack([p0, J])",
         ["tests/test_tree.py"],
     ),
-    "branches_nearest_path_ignored": (
+    "tree_child_not_led_in": (
+        "vesselgp/tree.py",
+        "            nodes[c], zone[c] = _led_in(nodes[c], Jp, lead_in[c], cl, raw[c].rscale)",
+        "            nodes[c] = _attach(nodes[c], Jp, cl, raw[c].rscale, at_start=True)",
+        ["tests/test_real_trees.py"],
+    ),
+    "tree_junction_not_held_in_zone": (
+        "vesselgp/tree.py",
+        "    return J if off <= R0 else J0 + (J - J0) * (R0 / off)",
+        "    return J",
+        ["tests/test_tree.py::test_junction_is_where_the_branch_lines_meet_held_within_the_zone"],
+    ),
+    "branches_vertex_by_plain_distance": (
         "vesselgp/branches.py",
-        "    nearest = np.argmin(excess, axis=1)",
-        "    nearest = np.zeros(len(V), np.int64)",
+        "        ratio[:, b] = d / Rq[i]",
+        "        ratio[:, b] = d",
+        ["tests/test_branches.py", "tests/test_real_trees.py"],
+    ),
+    "branches_parting_without_walk_back": (
+        "vesselgp/branches.py",
+        "    return int(near[-1]) if near.size else 0",
+        "    return int(far[0])",
         ["tests/test_branches.py", "tests/test_tree.py"],
+    ),
+    "branches_merge_limit_doubled": (
+        "vesselgp/branches.py",
+        "tol.TREE_JUNCTION_MERGE * self.R[self.rep[k]][self.junction_index(k)]",
+        "2.0 * tol.TREE_JUNCTION_MERGE * self.R[self.rep[k]][self.junction_index(k)]",
+        ["tests/test_branches.py"],
+    ),
+    "centerlines_circumcentre_half": (
+        "vesselgp/centerlines.py",
+        "    det = 2.0 * np.einsum(\"ij,ij->i\", b, cd)",
+        "    det = 4.0 * np.einsum(\"ij,ij->i\", b, cd)",
+        ["tests/test_branches.py", "tests/test_real_trees.py"],
+    ),
+    "centerlines_cost_without_radius": (
+        "vesselgp/centerlines.py",
+        "    cost = np.linalg.norm(cc[i] - cc[j], axis=1) / (0.5 * (R[i] + R[j]))",
+        "    cost = np.linalg.norm(cc[i] - cc[j], axis=1)",
+        ["tests/test_real_trees.py"],
+    ),
+    "orient_inward": (
+        "vesselgp/mesh/orient.py",
+        "    if signed_volume(*closed_by_fans(V, G, gt.boundary_loops)) < 0:",
+        "    if signed_volume(*closed_by_fans(V, G, gt.boundary_loops)) > 0:",
+        ["tests/test_robustness.py", "tests/test_real_trees.py"],
     ),
     "geodesic_default_heat_time": (
         "vesselgp/mesh/geodesic.py",
@@ -282,12 +336,6 @@ MUTATIONS = {
         "vesselgp/twist.py",
         "math.atan2(d @ W, d @ U)",
         "math.atan2(-(d @ W), d @ U)",
-        ["tests/test_twist.py"],
-    ),
-    "twist_main_axis_from_tree_path": (
-        "vesselgp/twist.py",
-        "    main = fit_generalized_cylinder(V, F, ends=(i, j), mesh_ends=all_ends, geodesics=geo)",
-        "    main = tree.paths[k]",
         ["tests/test_twist.py"],
     ),
     "twist_flip_keeps_azimuth": (

@@ -87,3 +87,44 @@ def test_needs_a_tree():
     with pytest.raises(vesselgp.EndsError, match="at least three ends"):
         branch_decomposition(ves.V, ves.F, vesselgp.vessel_ends(ves.V, ves.F))
 
+
+
+def _cross_lines(d, h=0.01):
+    """Centre lines (radius 1) of a trunk along x with three tips: A runs on along x to x = 20, B turns
+    off in +y at x = 5 and C in +z at x = 5 + d (each a right-angle corner, sampled every h)."""
+    from vesselgp.centerlines import Centerlines
+
+    def corner(x0, axis):
+        run = np.c_[np.arange(0.0, x0, h), np.zeros((int(round(x0 / h)), 2))]
+        out = np.zeros((int(round(10.0 / h)), 3))
+        out[:, 0] = x0
+        out[:, axis] = np.arange(0.0, 10.0, h)
+        return np.vstack([run, out])
+
+    a = np.c_[np.arange(0.0, 20.0, h), np.zeros((int(round(20.0 / h)), 2))]
+    pts = (a, corner(5.0, 1), corner(5.0 + d, 2))
+    return Centerlines(root=0, tips=(1, 2, 3), points=pts, radius=tuple(np.ones(len(p)) for p in pts))
+
+
+@pytest.mark.parametrize("d, merged", [(0.65, True), (0.75, False)])
+def test_junctions_closer_than_one_radius_are_one_zone(d, merged):
+    """TREE_JUNCTION_MERGE at its edge, from known geometry: the lines part TREE_MEET = 0.3 radii past
+    each corner, so the branch between the two junctions is d + 0.3 long; below one inscribed radius
+    (d < 0.7) the three tips hang off one junction, above it the tree has two."""
+    from vesselgp import tolerances as tol
+    from vesselgp.branches import _Topology
+
+    assert tol.TREE_JUNCTION_MERGE == 1.0 and tol.TREE_MEET == 0.3
+    topo = _Topology(_cross_lines(d), (1, 2, 3))
+    assert (len(topo.kids[topo.top]) == 3) == merged
+
+
+def test_a_child_starts_where_it_leaves_the_inscribed_spheres():
+    """TREE_CHILD_CLEAR at its edge: a point just inside a sphere of radius 2 is covered, just outside is not."""
+    from vesselgp import tolerances as tol
+    from vesselgp.branches import _covered
+
+    assert tol.TREE_CHILD_CLEAR == 1.0
+    P = np.array([[1.99, 0, 0], [2.01, 0, 0], [0, 0.5, 0]])
+    others = [(np.zeros((1, 3)), np.array([2.0])), (np.array([[10.0, 0, 0]]), np.array([0.1]))]
+    assert _covered(P, others).tolist() == [True, False, True]

@@ -101,6 +101,22 @@ def test_bend_check_finds_a_local_kink_and_passes_a_straight_axis():
     check_axis_bend(s, L, T, np.full(n, 0.5), ends_margin=12.5)  # the corner lies within 12.5 of the end
 
 
+def test_bend_check_skips_a_junction_zone_up_to_its_edge():
+    """A tree branch's led-in junction zone (``skip_start``) is not held to the bend limit: the same
+    corner (kappa 2.5 over arc 17.9-18.1, kappa r 1.25) passes when the zone ends just past it and is
+    named when the zone ends just before it."""
+    from vesselgp.inside import check_axis_bend
+
+    n, L = 3001, 30.0
+    s = np.linspace(0, 1, n)
+    phi = 0.5 * np.clip((s * L - 18.0) / 0.2 + 0.5, 0, 1)
+    T = np.c_[np.sin(phi), np.zeros(n), np.cos(phi)]
+    r = np.full(n, 0.5)
+    check_axis_bend(s, L, T, r, ends_margin=0.0, skip_start=18.15)
+    with pytest.raises(vesselgp.NotTubularError, match="bends tighter than its radius"):
+        check_axis_bend(s, L, T, r, ends_margin=0.0, skip_start=18.0)
+
+
 @pytest.mark.parametrize("step", [5, 7, 12])
 def test_sampled_vertex_normals_are_libigls(step):
     """The axis check's surface samples carry libigl's default (area-weighted) vertex normals, computed

@@ -293,11 +293,29 @@ def test_inconsistent_orientation_is_mended_or_repaired(tube, tube_fit):
     """Since issue #34 a winding fault alone is mended by the fit (logged); clean_mesh repairs it too."""
     F = tube.F.copy()
     F[::3] = F[::3, ::-1]
+    before = F.copy()
     assert len(vessel_ends(tube.V, F)) == 2
     assert_same_fit(fit_generalized_cylinder(tube.V, F), tube_fit)
+    assert np.array_equal(F, before)  # the caller's faces are not touched
     V2, F2, rep = clean_mesh(tube.V, F)
     assert rep.faces_flipped > 0
     assert_same_fit(fit_generalized_cylinder(V2, F2), tube_fit)
+
+
+def test_orientation_is_mended_only_where_it_is_the_one_fault():
+    """orient_faces at its edge: one tetrahedron with a face turned is mended (outward); the same beside
+    a second, disjoint one is left as it is for the connectivity check, which names the pieces."""
+    from vesselgp.mesh._geometry import signed_volume
+    from vesselgp.mesh.orient import orient_faces
+
+    V = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    F = np.array([[0, 2, 1], [0, 3, 1], [0, 3, 2], [1, 2, 3]])  # the second face turned
+    G, topo = orient_faces(V, F)
+    assert len(topo.incoherent_edges) == 0 and signed_volume(V, G) > 0
+    V2, F2 = np.vstack([V, V + 5.0]), np.vstack([F, F + 4])
+    assert orient_faces(V2, F2)[0] is F2
+    with pytest.raises(InvalidMeshError, match="connected components"):
+        vesselgp.fit.checked_mesh(V2, F2)
 
 
 def test_several_components_error_then_repair(tube, tube_fit):

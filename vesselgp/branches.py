@@ -68,9 +68,9 @@ class Branching:
     line_radius : tuple of (k_i,) float64
         The inscribed-sphere radius along each first axis.
     lead_in : tuple of (l_i, 3) float64
-        A child's centre line through its junction zone, from its parent's junction to where its
-        first axis starts (the trunk's is empty): the branch's axis there, inside the lumen
-        whatever the branch angle.
+        A child's centre line through its junction zone, from its point nearest its parent's
+        junction to where its first axis starts (the trunk's is empty): the branch's axis there,
+        inside the lumen whatever the branch angle.
     vertex_branch : (n,) int64
         The branch of each vertex.
     centerlines : Centerlines
@@ -129,9 +129,9 @@ def _agglomerate(tips, share):
     return nodes
 
 
-def _parting(Pa, Ra, Pb):
-    """Index on line ``a`` of its junction with line ``b`` (see the module notes)."""
-    d = cKDTree(Pb).query(Pa)[0]
+def _parting(Pa, Ra, tree_b):
+    """Index on line ``a`` of its junction with line ``b`` (its k-d tree; see the module notes)."""
+    d = tree_b.query(Pa)[0]
     far = np.flatnonzero(d > tol.TREE_SPLIT * Ra)
     if not far.size:  # a runs inside b all the way
         return len(Pa) - 1
@@ -146,7 +146,8 @@ class _Topology:
         self.P = {t: p for t, p in zip(tips, lines.points)}
         self.R = {t: r for t, r in zip(tips, lines.radius)}
         self.arc = {t: chord_length(p) for t, p in self.P.items()}
-        self.part = {(a, b): _parting(self.P[a], self.R[a], self.P[b]) for a in tips for b in tips if a != b}
+        kd = {t: cKDTree(p) for t, p in self.P.items()}
+        self.part = {(a, b): _parting(self.P[a], self.R[a], kd[b]) for a in tips for b in tips if a != b}
         share = {(a, b): 0.5 * (self.arc[a][self.part[(a, b)]] + self.arc[b][self.part[(b, a)]])
                  for a in tips for b in tips if a != b}
         share.update({(t, t): float(self.arc[t][-1]) for t in tips})
@@ -168,32 +169,43 @@ class _Topology:
         J = self.P[self.rep[parent]][self.junction_index(parent)]
         return int(np.argmin(np.linalg.norm(self.P[self.rep[k]] - J, axis=1)))
 
+    def _branch_length(self, c, k):
+        """Arc length of node ``c``'s branch (child of ``k``) along its own line."""
+        t = self.rep[c]
+        return self.arc[t][self.junction_index(c)] - self.arc[t][self.start_index(c, k)]
+
+    def _short_branch(self):
+        """A (parent, child) whose internal branch is shorter than ``TREE_JUNCTION_MERGE`` of the
+        parent's inscribed radius at its junction, or None: the deepest parents first (nodes are
+        numbered as they were agglomerated), among the nodes still reached from the top."""
+        reached, stack = [], [self.top]
+        while stack:
+            reached.append(stack.pop())
+            stack.extend(self.kids[reached[-1]])
+        for k in sorted(reached):
+            for c in self.kids[k]:
+                if self.kids[c] and self._branch_length(c, k) < (
+                        tol.TREE_JUNCTION_MERGE * self.R[self.rep[k]][self.junction_index(k)]):
+                    return k, c
+        return None
+
     def _merge(self):
-        """Drop the internal branches shorter than ``TREE_JUNCTION_MERGE`` of their parent's radius."""
-        changed = True
-        while changed:
-            changed = False
-            for k in list(self.kids):
-                for c in self.kids[k]:
-                    if not self.kids[c]:
-                        continue
-                    t = self.rep[c]
-                    length = self.arc[t][self.junction_index(c)] - self.arc[t][self.start_index(c, k)]
-                    jr = self.R[self.rep[k]][self.junction_index(k)]
-                    if length < tol.TREE_JUNCTION_MERGE * jr:
-                        self.kids[k] = [x for x in self.kids[k] if x != c] + self.kids[c]
-                        changed = True
-                        break
-                if changed:
-                    break
+        """Drop the internal branches shorter than ``TREE_JUNCTION_MERGE`` of their parent's radius:
+        their children hang off the parent's junction."""
+        while (short := self._short_branch()) is not None:
+            k, c = short
+            self.kids[k] = [x for x in self.kids[k] if x != c] + self.kids[c]
 
 
 def _covered(P, others):
-    """Whether each point of ``P`` lies inside an inscribed sphere of the lines ``others`` ((points, radii) pairs)."""
+    """Whether each point of ``P`` lies inside an inscribed sphere, scaled by ``TREE_CHILD_CLEAR``, of
+    the lines ``others`` ((points, radii) pairs): the pairs closer than the largest sphere, from a k-d tree."""
     Q = np.vstack([q for q, _ in others])
     Rq = np.concatenate([r for _, r in others]) * tol.TREE_CHILD_CLEAR
-    d = np.linalg.norm(P[:, None, :] - Q[None, :, :], axis=2)
-    return (d < Rq[None, :]).any(axis=1)
+    near = cKDTree(Q).sparse_distance_matrix(cKDTree(P), float(Rq.max()), output_type="ndarray")
+    out = np.zeros(len(P), bool)
+    out[near["j"][near["v"] < Rq[near["i"]]]] = True
+    return out
 
 
 def _branch_line(topo, k, parent):
@@ -206,40 +218,39 @@ def _branch_line(topo, k, parent):
     """
     t = topo.rep[k]
     P, R = topo.P[t], topo.R[t]
-    i0 = topo.start_index(k, parent)
+    start = i0 = topo.start_index(k, parent)
     i1 = topo.junction_index(k) if topo.kids[k] else len(P) - 1
     J = np.append(P[i1], R[i1]) if topo.kids[k] else np.full(4, np.nan)
-    lead = np.zeros((0, 3))
     if parent >= 0:
-        tp = topo.rep[parent]
-        jp = topo.junction_index(parent)
+        tp, jp = topo.rep[parent], topo.junction_index(parent)
         others = [(topo.P[tp][:jp + 1], topo.R[tp][:jp + 1])]
         for c in topo.kids[parent]:
             if c != k:
                 ic = topo.start_index(c, parent)
                 others.append((topo.P[topo.rep[c]][ic:], topo.R[topo.rep[c]][ic:]))
         free = np.flatnonzero(~_covered(P[i0:i1 + 1], others))
-        start = i0
-        i0 = max(min(i0 + int(free[0]) if free.size else i1, i1 - 1), 0)
-        lead = np.vstack([topo.P[tp][jp], P[start:i0 + 1]])
+        i0 = i0 + int(free[0]) if free.size else i1
     i0 = max(min(i0, i1 - 1), 0)
+    lead = P[start:i0 + 1] if parent >= 0 else np.zeros((0, 3))
     return P[i0:i1 + 1], R[i0:i1 + 1], J, lead
 
 
 def _vertex_branch(V, lines, radius):
     """The branch of each vertex: the one whose first axis is nearest in its own inscribed radii.
 
-    Each branch's nearest dense sample (by distance) gives the vertex's distance over the
-    inscribed radius there; the least ratio wins. Plain distance gave the wall of a wide
-    trunk around a thin branch's mouth to the thin branch, whose line passes closer to it
-    than the trunk's own.
+    Each branch's nearest dense sample (by distance; a quarter of its least inscribed radius
+    apart, at most ``tolerances.TREE_LINE_SAMPLES`` of them) gives the vertex's distance over the
+    inscribed radius there; the least ratio wins. Plain distance gave the wall of a wide trunk
+    around a thin branch's mouth to the thin branch, whose line passes closer to it than the
+    trunk's own.
     """
     ratio = np.empty((len(V), len(lines)))
     for b, (P, R) in enumerate(zip(lines, radius)):
         arc = chord_length(P)
         k = int(np.clip(np.ceil(arc[-1] / (0.25 * float(np.min(R)))), 2, tol.TREE_LINE_SAMPLES)) + 1
         Q = resample_arclength(P, k)
-        Rq = np.interp(chord_length(Q) * (arc[-1] / max(chord_length(Q)[-1], np.finfo(float).tiny)), arc, R)
+        aq = chord_length(Q)
+        Rq = np.interp(aq * (arc[-1] / aq[-1]), arc, R)  # the samples' arc length on the line
         d, i = cKDTree(Q).query(V)
         ratio[:, b] = d / Rq[i]
     return np.argmin(ratio, axis=1).astype(np.int64)

@@ -39,6 +39,7 @@ from scipy.spatial import QhullError
 from . import tolerances as tol
 from ._arrays import spread_subset
 from .errors import NotTubularError
+from .mesh._geometry import closed_by_fans
 
 log = logging.getLogger(__name__)
 
@@ -66,25 +67,6 @@ class Centerlines:
     tips: tuple
     points: tuple
     radius: tuple
-
-    def line(self, tip):
-        """Points and radii of the line to end ``tip``."""
-        k = self.tips.index(int(tip))
-        return self.points[k], self.radius[k]
-
-
-def _closed_by_fans(V, F, loops):
-    """``V, F`` with each boundary loop closed by a fan about its centroid (winding number input)."""
-    Vs, Fs, n = [V], [F], len(V)
-    for lp in loops:
-        lp = np.asarray(lp, np.int64)
-        if len(lp) < 3:
-            continue
-        Vs.append(V[lp].mean(axis=0)[None])
-        # the loops follow the faces (a -> b is a half-edge of F): the filling faces run b -> a
-        Fs.append(np.stack([np.roll(lp, -1), lp, np.full(len(lp), n)], axis=1))
-        n += 1
-    return np.vstack(Vs), np.vstack(Fs)
 
 
 def _circumspheres(P, T):
@@ -117,7 +99,7 @@ def _voronoi_graph(V, F, loops):
                               "is the mesh flat? check it with vesselgp.clean_mesh") from None
     cc, R = _circumspheres(P, tri.simplices)
     ok = np.isfinite(R)
-    Vc, Fc = _closed_by_fans(V, F, loops)
+    Vc, Fc = closed_by_fans(V, F, loops)
     w = np.zeros(len(cc))
     w[ok] = igl.fast_winding_number(Vc, Fc, cc[ok])
     inside = ok & (np.abs(w) > 0.5)  # either orientation of a closed surface
@@ -158,13 +140,7 @@ def _smoothed(P, R):
     return Q, Rq
 
 
-def _seed(points, R, inside_ids, kd, end):
-    """The inside Voronoi vertex of an end: the nearest to its centre."""
-    _, k = kd.query(end.center)
-    return int(inside_ids[k])
-
-
-def centerlines(V, F, ends, root=None, *, loops=None):
+def centerlines(V, F, ends, root, *, loops=None):
     """Medial centre lines from the root end to every other end (see the module notes).
 
     Parameters
@@ -175,8 +151,8 @@ def centerlines(V, F, ends, root=None, *, loops=None):
         oriented.
     ends : sequence of VesselEnd
         Every end (:func:`vesselgp.vessel_ends`), at least two.
-    root : int, optional
-        The root end's index; default the widest end.
+    root : int
+        The root end's index (:func:`vesselgp.branches.root_end` picks the widest).
     loops : sequence of (k,) int64, optional
         The boundary loops (closed by fans for the inside test); default from libigl.
 
@@ -195,21 +171,19 @@ def centerlines(V, F, ends, root=None, *, loops=None):
     >>> from vesselgp.synthetic import synthetic_tree
     >>> from vesselgp import vessel_ends
     >>> t = synthetic_tree(levels=1, voxel=0.6)
-    >>> c = centerlines(t.V, t.F, vessel_ends(t.V, t.F))
+    >>> c = centerlines(t.V, t.F, vessel_ends(t.V, t.F), 0)
     >>> c.tips, [len(p) > 10 for p in c.points]
     ((1, 2), [True, True])
     >>> d, r, _, _ = t.truth.nearest(c.points[0])
     >>> bool(np.median(d / r) < 0.1)
     True
     """
-    if root is None:
-        root = int(np.argmax([e.radius for e in ends]))
     if loops is None:
         loops = igl.boundary_loop_all(F)
     cc, R, inside, G = _voronoi_graph(V, F, loops)
     ids = np.flatnonzero(inside)
     kd = cKDTree(cc[ids])
-    seeds = [_seed(cc, R, ids, kd, e) for e in ends]
+    seeds = [int(ids[kd.query(e.center)[1]]) for e in ends]  # each end's nearest inside Voronoi vertex
     dist, pred = dijkstra(G, directed=False, indices=seeds[root], return_predecessors=True)
     tips, points, radius = [], [], []
     for j, e in enumerate(ends):

@@ -493,12 +493,12 @@ def fit_generalized_cylinder(
     True
     """
     V, F = as_mesh(V, F)
-    F, _ = orient_faces(V, F)  # a winding fault alone is mended (logged), not refused
+    F, topo = orient_faces(V, F)  # a winding fault alone is mended (logged), not refused
     lam = tol.GC_LAMBDA if lam is None else float(lam)
     mu = tol.GC_MU if mu is None else float(mu)
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
     _check_options(n_nodes, lam, mu, max_iter)
-    checked = checked_mesh(V, F)
+    checked = checked_mesh(V, F, topo)
     topo, Fg, median_edge = checked
     if initial_normal is not None:
         initial_normal = as_vector(initial_normal, "initial_normal")
@@ -828,13 +828,15 @@ class CheckedMesh(NamedTuple):
         return self.topology if len(self.faces) == self.topology.n_faces else None
 
 
-def checked_mesh(V, F):
+def checked_mesh(V, F, topology=None):
     """The checks every fit makes of its mesh; its topology and the faces with a well-defined area.
 
     Parameters
     ----------
     V : (n, 3) float64
     F : (m, 3) int64
+    topology : MeshTopology, optional
+        Of ``F``, when already built (:func:`vesselgp.mesh.orient.orient_faces` returns it).
 
     Returns
     -------
@@ -849,7 +851,7 @@ def checked_mesh(V, F):
         by zero-area faces.
     """
     _check_used(V, F)
-    topo = mesh_topology(F, len(V))
+    topo = mesh_topology(F, len(V)) if topology is None else topology
     _check_connected(topo)
     return CheckedMesh(topo, *_nondegenerate_faces(V, F))
 

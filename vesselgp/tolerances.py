@@ -502,10 +502,11 @@ TREE_JUNCTION_MERGE = 1.0
 #: this, of the parent's and its siblings' lines (inside, the surface is the junction zone's).
 TREE_CHILD_CLEAR = 1.0
 
+#: At most this many dense samples of a branch's first axis assign the vertices to branches.
+TREE_LINE_SAMPLES = 401
+
 # ----------------------------------------------------------------------------- vessel trees (vesselgp.tree)
 
-#: Dense samples of a branch's medial first axis, for each vertex's first parameter on it.
-TREE_LINE_SAMPLES = 401
 #: A branch end's line (towards its junction) is the chord of its axis over this many radii ...
 TREE_JUNCTION_CHORD = 3.0
 #: ... starting this many radii from the end (the last stretch is bent by the junction's bulge;
@@ -519,8 +520,6 @@ TREE_PATH_ROUNDING = 1.0
 #: Weight (against the squared sines of the branch angles) pulling a junction towards the parent's
 #: axis end (keeps a shallow bifurcation, with nearly parallel lines, solvable).
 TREE_JUNCTION_ANCHOR = 0.02
-#: A junction lies at most this many parent radii beyond the parent's fitted axis end.
-TREE_JUNCTION_REACH = 2.0
 #: A vertex is at its foot on an axis when its offset from the axis point has a component along
 #: the tangent below this many radii (the tree's cylinders project again the few that are not).
 FOOT_TOLERANCE = 1e-3

@@ -107,7 +107,7 @@ class VesselTree:
     paths: tuple
     path_branches: tuple
     vertex_branch: np.ndarray
-    junction_zone: np.ndarray = None
+    junction_zone: np.ndarray
 
     def path_to(self, end):
         """The path from the root to end index ``end``.
@@ -156,10 +156,9 @@ def _branch_problem(V, area, line, idx, caps, start, end):
     L0 = float(chord_length(line)[-1])
     if not L0 > 0 or not (ab > 0).any():
         raise NotTubularError("a branch of the tree has no length or no wall; check the mesh (vesselgp.clean_mesh)")
-    dense = resample_arclength(line, tol.TREE_LINE_SAMPLES)
-    dist, near = cKDTree(dense).query(Vb)
+    dist, near = cKDTree(line).query(Vb)  # the line has a point every MEDIAL_SPACING inscribed radii
     rscale = float(np.median(dist[ab > 0]))
-    s0 = near / (len(dense) - 1.0)
+    s0 = chord_length(line)[near] / L0
     K = int(np.clip(L0 / (tol.GC_NODE_SPACING * rscale), tol.GC_MIN_NODES, tol.GC_MAX_NODES))
     return FitProblem(resample_arclength(line, K), s0, Vb, ab, caps, rscale, L0,
                       pin=(start is not None, end is not None),
@@ -245,24 +244,27 @@ def _attach(nodes, J, line, rscale, at_start):
     return np.vstack([link[::-1], keep]) if at_start else np.vstack([keep, link])
 
 
-def _led_in(nodes, lead, line, rscale):
-    """A child's nodes from the line's point ``p0`` on, led in from its junction along its centre line.
+def _led_in(nodes, J, lead, line, rscale):
+    """A child's nodes from the line's point ``p0`` on, led in from its junction ``J`` along its centre line.
 
-    ``lead`` runs from the junction through the junction zone (:class:`vesselgp.branches.Branching`,
-    ``lead_in``); its points up to ``TREE_PATH_ROUNDING`` radii before ``p0`` (along the axis's
-    direction there) are kept, then a cubic Hermite curve joins them to ``p0`` with the axis's own
-    direction. A straight link from the junction cut through the wall where a branch leaves a wide
-    trunk at a steep angle (the arch's branches, the renals). Returns the nodes and the arc length
-    of the led-in part (up to ``p0``): the junction zone, anatomy rather than a fit.
+    ``lead`` is the child's centre line through the junction zone
+    (:class:`vesselgp.branches.Branching`, ``lead_in``); it is taken from its point nearest to
+    ``J`` on (a line that parted early from its parent's ran beside it inside the trunk up to
+    there), and its points up to ``TREE_PATH_ROUNDING`` radii before ``p0`` (along the axis's
+    direction there) are kept; a cubic Hermite curve joins the last of them to ``p0`` with the
+    axis's own direction. A straight link from the junction cut through the wall where a branch
+    leaves a wide trunk at a steep angle (the arch's branches, the renals). Returns the nodes and
+    the arc length of the led-in part (up to ``p0``): the junction zone, anatomy rather than a fit.
     """
     p0, _, t_out = line
     keep = nodes[(nodes - p0) @ t_out < 0]
     if len(keep) < 2:
         raise NotTubularError("a branch of the tree is shorter than its junction zone; "
                               "the mesh may have a side bulge detected as an end (see vesselgp.vessel_ends)")
+    i = int(np.argmin(np.linalg.norm(lead - J, axis=1)))
+    lead = np.vstack([J, lead[i + 1:]])
     before = lead[(lead - p0) @ t_out > tol.TREE_PATH_ROUNDING * rscale]
-    if not len(before):
-        before = lead[:1]
+    before = before if len(before) else lead[:1]  # J itself is closer to p0: one curve from J
     a = before[-1]
     ta = before[-1] - before[-2] if len(before) > 1 else p0 - a
     if not np.linalg.norm(p0 - a) > 0 or not np.linalg.norm(ta) > 0:
@@ -294,11 +296,7 @@ def _junctions(raw, parent, junctions, junction_radius, lead_in):
         Jp = _junction_point(pline, clines, junctions[b], junction_radius[b])
         nodes[b] = _attach(nodes[b], Jp, pline, raw[b].rscale, at_start=False)
         for c, cl in zip(kids, clines):
-            # from the centre line's point nearest the junction: a line that parted early from its
-            # parent's ran beside it inside the trunk up to there
-            i = int(np.argmin(np.linalg.norm(lead_in[c] - Jp, axis=1)))
-            lead = np.vstack([Jp, lead_in[c][i + 1:]])
-            nodes[c], zone[c] = _led_in(nodes[c], lead, cl, raw[c].rscale)
+            nodes[c], zone[c] = _led_in(nodes[c], Jp, lead_in[c], cl, raw[c].rscale)
         J.append(Jp)
         Jb.append(b)
     return np.array(J).reshape(-1, 3), np.array(Jb, np.int64), nodes, zone
@@ -424,11 +422,11 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     ([-1, 0, 0], [(0, 1), (0, 2)], (1, 3))
     """
     V, F = as_mesh(V, F)
-    F, _ = orient_faces(V, F)  # a winding fault alone is mended (logged), not refused
+    F, topo = orient_faces(V, F)  # a winding fault alone is mended (logged), not refused
     lam = tol.GC_LAMBDA if lam is None else float(lam)
     mu = tol.GC_MU if mu is None else float(mu)
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
-    checked = checked_mesh(V, F)
+    checked = checked_mesh(V, F, topo)
     topo, Fg, _ = checked
     if geodesics is not None:
         geodesics.check(V, Fg)
@@ -445,18 +443,7 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
                           vertex_branch=np.zeros(len(V), np.int64), junction_zone=np.zeros(1))
     area = voronoi_areas(V, Fg)
     br = branch_decomposition(V, Fg, ends, root, loops=topo.boundary_loops)
-    caps = np.zeros(len(V), bool)
-    for e in ends:
-        if e.kind != "open":
-            caps[np.asarray(e.vertices, np.int64)] = True
-    leaf_tip = {b: t for t, b in br.end_branch.items()}
-    problems, ids = [], []
-    for b in range(len(br.parent)):
-        idx = np.flatnonzero(br.vertex_branch == b)
-        start = ends[root] if b == 0 else None
-        end = ends[leaf_tip[b]] if b in leaf_tip else None
-        problems.append(_branch_problem(V, area, br.lines[b], idx, caps[idx], start, end))
-        ids.append(idx)
+    caps, leaf_tip, problems, ids = _branch_problems(V, area, ends, root, br)
     # the branches' fixed points in lock step (one vectorised pass per iteration over all of them)
     fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit")
     raw = [_RawBranch(idx=idx, nodes=it.nodes, s=it.s, it=it, rscale=p.rscale)
@@ -472,8 +459,24 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     return VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
                       path_branches=tuple(path_branches), vertex_branch=br.vertex_branch,
-                      junction_zone=zone * np.array([b.length for b in branches]) / np.maximum(
-                          [chord_length(n)[-1] for n in nodes], np.finfo(float).tiny))
+                      junction_zone=zone)
+
+
+def _branch_problems(V, area, ends, root, br):
+    """The cap and tip vertices, each leaf branch's tip end, and every branch's fixed point and vertex ids."""
+    caps = np.zeros(len(V), bool)
+    for e in ends:
+        if e.kind != "open":
+            caps[np.asarray(e.vertices, np.int64)] = True
+    leaf_tip = {b: t for t, b in br.end_branch.items()}
+    problems, ids = [], []
+    for b in range(len(br.parent)):
+        idx = np.flatnonzero(br.vertex_branch == b)
+        start = ends[root] if b == 0 else None
+        end = ends[leaf_tip[b]] if b in leaf_tip else None
+        problems.append(_branch_problem(V, area, br.lines[b], idx, caps[idx], start, end))
+        ids.append(idx)
+    return caps, leaf_tip, problems, ids
 
 
 def _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu):

@@ -49,8 +49,7 @@ from .errors import EndsError
 from .mesh import vessel_ends
 from .mesh._ends_format import end_listing
 from .rotations import wrap_angle
-from .fit import checked_mesh, fit_generalized_cylinder
-from .mesh.geodesic import GeodesicDistances
+from .fit import fit_generalized_cylinder
 from .tree import fit_vessel_tree
 
 log = logging.getLogger(__name__)
@@ -231,15 +230,10 @@ def scan_landmarks(V, F, ends=None):
     V, F = as_mesh(V, F)
     all_ends = vessel_ends(V, F)
     i, j = _main_ends(all_ends, ends, "ends")
-    # one heat-geodesic factorisation for the tree and the main fit's path between its ends
-    geo = None
-    if len(all_ends) > 2:
-        checked = checked_mesh(V, F)
-        geo = GeodesicDistances(V, checked.faces, checked.faces_topology)
-    tree = fit_vessel_tree(V, F, i, ends=all_ends, geodesics=geo)
+    tree = fit_vessel_tree(V, F, i, ends=all_ends)
     k = next(q for q, p in enumerate(tree.paths) if p.ends[1] == j)
     on_main = set(tree.path_branches[k])
-    main = fit_generalized_cylinder(V, F, ends=(i, j), mesh_ends=all_ends, geodesics=geo)
+    main = fit_generalized_cylinder(V, F, ends=(i, j), mesh_ends=all_ends)
     rows = []
     for b in tree.path_branches[k][:-1]:
         J = tree.junctions[int(np.flatnonzero(tree.junction_branch == b)[0])]

@@ -123,6 +123,24 @@ def signed_volume(V, F):
     return float(np.einsum("ij,ij->", V[F[:, 0]], np.cross(V[F[:, 1]], V[F[:, 2]])) / 6.0)
 
 
+def closed_by_fans(V, F, loops):
+    """``V, F`` with each boundary loop of three or more vertices closed by a fan about its mean.
+
+    The loops follow the faces (a -> b is a half-edge of ``F``), so the fan's faces run b -> a and
+    keep a coherent orientation coherent. Returns (n + l, 3) float64 and (m + sum of loop sizes, 3)
+    int64: a closed surface for a winding number or a volume.
+    """
+    Vs, Fs, n = [V], [F], len(V)
+    for lp in loops:
+        lp = np.asarray(lp, np.int64)
+        if len(lp) < 3:
+            continue
+        Vs.append(V[lp].mean(axis=0)[None])
+        Fs.append(np.stack([np.roll(lp, -1), lp, np.full(len(lp), n)], axis=1))
+        n += 1
+    return np.vstack(Vs), np.vstack(Fs)
+
+
 def vector_area(P):
     """Vector area of a closed polygon (rows of P in order): (3,) float64."""
     c = P.mean(0)

@@ -14,22 +14,12 @@ import logging
 import igl
 import numpy as np
 
+from ._geometry import closed_by_fans, signed_volume
 from .topology import mesh_topology
 
 log = logging.getLogger(__name__)
 
 __all__ = ["orient_faces"]
-
-
-def _fan_volume(V, F, loops):
-    """Six times the signed volume enclosed by ``F`` with each boundary loop closed by a fan."""
-    vol = np.einsum("ij,ij->i", V[F[:, 0]], np.cross(V[F[:, 1]], V[F[:, 2]])).sum()
-    for lp in loops:
-        lp = np.asarray(lp, np.int64)
-        c = V[lp].mean(axis=0)
-        a, b = V[np.roll(lp, -1)], V[lp]  # the fan runs against the loop (the loop follows the faces)
-        vol += np.einsum("ij,ij->i", a, np.cross(b, np.broadcast_to(c, a.shape))).sum()
-    return float(vol)
 
 
 def orient_faces(V, F, topology=None):
@@ -58,7 +48,7 @@ def orient_faces(V, F, topology=None):
     >>> bool((G == F).all())
     True
     >>> G, topo = orient_faces(V, np.array([[0, 2, 1], [0, 3, 1], [0, 3, 2], [1, 2, 3]]))
-    >>> len(topo.incoherent_edges), bool(_fan_volume(V, G, []) > 0)
+    >>> len(topo.incoherent_edges), bool(signed_volume(V, G) > 0)
     (0, True)
     """
     topo = mesh_topology(F, len(V)) if topology is None else topology
@@ -69,7 +59,7 @@ def orient_faces(V, F, topology=None):
         return F, topo
     G = np.ascontiguousarray(G, dtype=np.int64)
     gt = mesh_topology(G, len(V))
-    if _fan_volume(V, G, gt.boundary_loops) < 0:
+    if signed_volume(*closed_by_fans(V, G, gt.boundary_loops)) < 0:
         G = np.ascontiguousarray(G[:, ::-1])
         gt = mesh_topology(G, len(V))
     flipped = int(np.count_nonzero((G != F).any(axis=1)))
