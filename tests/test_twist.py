@@ -85,9 +85,7 @@ def test_direction_is_decided_by_the_landmarks(pairs):
     ea = r.ends_a
     rr = vg.twist_between(p.a.V, p.a.F, p.V_b, p.b.F, ends_a=(ea[1], ea[0]))
     assert rr.ends_b == (r.ends_b[1], r.ends_b[0])
-    # each scan's tree is fitted from the other root: its centre lines (Dijkstra from that root)
-    # and so its junction zones differ a little; the twists agree within the truth tests' bound
-    assert np.allclose(np.degrees(rr.segment_twist), np.degrees(r.segment_twist[::-1]), atol=SEG_TOL_DEG)
+    assert np.allclose(np.degrees(rr.segment_twist), np.degrees(r.segment_twist[::-1]), atol=0.5)
 
 
 def test_density_does_not_change_the_result():
