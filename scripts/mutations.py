@@ -410,17 +410,41 @@ MUTATIONS = {
         "        np.multiply(h, c[1, :, j, None], out=Xj)\n        Xj += c[0, :, j, None]",
         ["tests/test_curves.py", "tests/test_fit.py"],
     ),
-    "winding_distance_expansion": (
+    "winding_on_the_open_surface": (
         "vesselgp/inside.py",
-        "        r3 *= -2.0",
-        "        r3 *= -1.0",
+        "        w = igl.fast_winding_number(*self._closed, Q)",
+        "        w = igl.fast_winding_number(self._V, self._F, Q)",
+        ["tests/test_inside.py", "tests/test_real_trees.py"],
+    ),
+    "wall_distance_squared": (
+        "vesselgp/inside.py",
+        "        return np.asarray(w, np.float64), np.sqrt(d2)",
+        "        return np.asarray(w, np.float64), d2",
         ["tests/test_inside.py"],
     ),
-    "sampled_normals_unweighted": (
-        "vesselgp/inside.py",
-        "    tgt = at[corners]",
-        "    cr /= np.linalg.norm(cr, axis=1, keepdims=True)\n    tgt = at[corners]",
-        ["tests/test_inside.py"],
+    "medial_departure_loosened": (
+        "vesselgp/medial_zones.py",
+        "    bad = inner & (d > tol.TREE_MEDIAL_DEPARTURE * Ri)",
+        "    bad = inner & (d > 2.0 * tol.TREE_MEDIAL_DEPARTURE * Ri)",
+        ["tests/test_medial_zones.py"],
+    ),
+    "medial_through_ignored": (
+        "vesselgp/medial_zones.py",
+        "    inner = ((a > 0.0) | through[0]) & ((a < aL[-1]) | through[1])",
+        "    inner = (a > 0.0) & (a < aL[-1])",
+        ["tests/test_medial_zones.py"],
+    ),
+    "tree_no_medial_zones_after_junctions": (
+        "vesselgp/tree.py",
+        "        nodes[b], zones = medial_zones(nodes[b], line, R, r.rscale, through=(True, True))",
+        "        zones = np.zeros((0, 2))",
+        ["tests/test_real_trees.py"],
+    ),
+    "tree_junction_held_a_whole_radius": (
+        "vesselgp/tree.py",
+        "tol.TREE_JUNCTION_HOLD * junction_radius[b]",
+        "junction_radius[b]",
+        ["tests/test_real_trees.py", "tests/test_twist.py"],
     ),
     "vertex_components_one_direction": (
         "vesselgp/mesh/topology.py",

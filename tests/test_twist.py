@@ -85,7 +85,11 @@ def test_direction_is_decided_by_the_landmarks(pairs):
     ea = r.ends_a
     rr = vg.twist_between(p.a.V, p.a.F, p.V_b, p.b.F, ends_a=(ea[1], ea[0]))
     assert rr.ends_b == (r.ends_b[1], r.ends_b[0])
-    assert np.allclose(np.degrees(rr.segment_twist), np.degrees(r.segment_twist[::-1]), atol=0.5)
+    # measured 0.61 degrees apart since junctions are held within half an inscribed radius (issue #34;
+    # 0.36 before): the reversed run moved towards the truth (worst 0.79 against 1.23 degrees off)
+    assert np.allclose(np.degrees(rr.segment_twist), np.degrees(r.segment_twist[::-1]), atol=0.9)
+    want = np.degrees(np.diff(p.alpha))[::-1]
+    assert np.all(np.abs(np.degrees(rr.segment_twist) - want) <= SEG_TOL_DEG)
 
 
 def test_density_does_not_change_the_result():

@@ -84,10 +84,6 @@ PROJECTION_CANDIDATES = 8
 #: Entries of the distance block formed at a time when projecting points that have
 #: no candidate axis sample among their nearest ones (memory bound).
 PROJECTION_CHUNK = 4_000_000
-#: Query-sample pairs of the axis check's winding sum formed at a time. Blocks of about 190 KB
-#: stay in cache and in the allocator's heap; blocks of 1.5 MB (the coronary's 109 x 1680 at
-#: once) were mapped and faulted in afresh on every call: 1.6 ms against 5.8 ms there.
-WINDING_BLOCK_PAIRS = 24_000
 #: Rows (vertices) projected onto an axis, or put in its frames, at a time: the gathers and
 #: k-d tree candidates cost about 0.6 KB a row, so this bounds them to about 20 MB whatever
 #: the mesh size (peak memory, issue #16).
@@ -135,13 +131,6 @@ FRAME_CARRY_MAX_TURN = 0.5
 #: fit's convergence tolerance).
 GC_ARCLENGTH_CHORDS_PER_NODE = 32
 
-#: The axis check (vesselgp.inside): surface samples (an evenly thinned vertex subset)
-#: for the point-cloud winding number and the wall distance.
-INSIDE_SAMPLES = 3000
-#: When those samples are every k-th vertex with k at most this, their normals are taken from
-#: libigl's normals of the whole mesh (0.27 ms on the 3k coronary, against 1.2 ms for visiting
-#: only the samples' corners; the other way round on large meshes: 0.05 s against 0.2 s at 1M).
-INSIDE_FULL_NORMALS_STEP = 4
 #: |winding number| below which an axis sample is outside the (closed) surface.
 INSIDE_WINDING = 0.5
 #: An axis sample nearer the wall than this fraction of the local radius grazes it.
@@ -520,11 +509,24 @@ TREE_PATH_ROUNDING = 1.0
 #: Weight (against the squared sines of the branch angles) pulling a junction towards the parent's
 #: axis end (keeps a shallow bifurcation, with nearly parallel lines, solvable).
 TREE_JUNCTION_ANCHOR = 0.02
+#: A junction is held within this many inscribed radii of the centre lines' junction (a least-squares
+#: meeting point of nearly parallel lines, the aorta running on past an arch branch, strayed up to a
+#: whole radius off and the parent's axis kinked to reach it): the medial departure's half radius.
+TREE_JUNCTION_HOLD = 0.5
 #: A vertex is at its foot on an axis when its offset from the axis point has a component along
 #: the tangent below this many radii (the tree's cylinders project again the few that are not).
 FOOT_TOLERANCE = 1e-3
 #: ... and those start again from the nearest axis sample within this many radii of their start.
 TREE_FOOT_WINDOW = 4.0
+#: Where a branch's fitted axis is farther than this many inscribed radii from the lumen's centre line
+#: (a sac pulling the wall's mean, a stub whose only wall is its junction's flare, a fold), the tube
+#: model does not describe the lumen there and the axis is the centre line (vesselgp.medial_zones).
+#: The fit stays within 0.01-0.15 radii of it on tubes (synthetic trees 0.02, real branches 0.1).
+TREE_MEDIAL_DEPARTURE = 0.5
+#: ... over the stretch where it departs, widened by this many radii on either side ...
+TREE_MEDIAL_MARGIN = 1.0
+#: ... and blended back into the fitted axis over this many radii beyond that (a smoothstep).
+TREE_MEDIAL_BLEND = 2.0
 #: Opacity of the mesh in the tree picture of ``vesselgp fit`` (the axis network shows through).
 VIZ_TREE_ALPHA = 0.35
 

@@ -52,6 +52,7 @@ from .inside import SurfaceWinding, check_axis_inside
 from .mesh.orient import orient_faces
 from .mesh import vessel_ends
 from .mesh._geometry import voronoi_areas
+from .medial_zones import medial_zones
 from .rotations import minimal_rotation
 
 log = logging.getLogger(__name__)
@@ -96,6 +97,11 @@ class VesselTree:
         Arc length from each branch's start over which its axis is led in along the
         lumen's centre line through its parent's junction zone (0 for the trunk): there the
         axis is the centre line, not the tube model's fit.
+    medial_zones : tuple of (z, 2) float64
+        Per branch, the ranges of its normalised arc length ``s`` where the tube model does not
+        describe the lumen (a sac, a stub, a fold: the fit departed from the lumen's centre line
+        by more than half an inscribed radius) and the axis is the centre line instead
+        (:func:`vesselgp.medial_zones.medial_zones`); empty where the fit holds throughout.
     """
 
     ends: tuple
@@ -108,6 +114,7 @@ class VesselTree:
     path_branches: tuple
     vertex_branch: np.ndarray
     junction_zone: np.ndarray
+    medial_zones: tuple
 
     def path_to(self, end):
         """The path from the root to end index ``end``.
@@ -293,7 +300,7 @@ def _junctions(raw, parent, junctions, junction_radius, lead_in):
             continue
         pline = _end_line(raw[b].nodes, raw[b].rscale, at_start=False)
         clines = [_end_line(raw[c].nodes, raw[c].rscale, at_start=True) for c in kids]
-        Jp = _junction_point(pline, clines, junctions[b], junction_radius[b])
+        Jp = _junction_point(pline, clines, junctions[b], tol.TREE_JUNCTION_HOLD * junction_radius[b])
         nodes[b] = _attach(nodes[b], Jp, pline, raw[b].rscale, at_start=False)
         for c, cl in zip(kids, clines):
             nodes[c], zone[c] = _led_in(nodes[c], Jp, lead_in[c], cl, raw[c].rscale)
@@ -440,15 +447,23 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
                                       mesh_ends=ends, geodesics=geodesics)
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
-                          vertex_branch=np.zeros(len(V), np.int64), junction_zone=np.zeros(1))
+                          vertex_branch=np.zeros(len(V), np.int64), junction_zone=np.zeros(1),
+                          medial_zones=(np.zeros((0, 2)),))
     area = voronoi_areas(V, Fg)
     br = branch_decomposition(V, Fg, ends, root, loops=topo.boundary_loops)
     caps, leaf_tip, problems, ids = _branch_problems(V, area, ends, root, br)
     # the branches' fixed points in lock step (one vectorised pass per iteration over all of them)
     fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit")
-    raw = [_RawBranch(idx=idx, nodes=it.nodes, s=it.s, it=it, rscale=p.rscale)
-           for idx, it, p in zip(ids, fits, problems)]
+    raw, medial = [], []
+    for b, (idx, it, p) in enumerate(zip(ids, fits, problems)):
+        nodes, zones = medial_zones(it.nodes, br.lines[b], br.line_radius[b], p.rscale)
+        raw.append(_RawBranch(idx=idx, nodes=nodes, s=it.s, it=it, rscale=p.rscale))
+        medial.append(br.lines[b][np.searchsorted(chord_length(br.lines[b]), zones)])  # (z, 2, 3) ends
     junctions, junction_branch, nodes, zone = _junctions(raw, br.parent, br.junctions, br.junction_radius, br.lead_in)
+    for b, r in enumerate(raw):  # again through the junction zones, the axes now joined there
+        line, R = _through_junctions(b, br, junctions, junction_branch)
+        nodes[b], zones = medial_zones(nodes[b], line, R, r.rscale, through=(True, True))
+        medial[b] = np.concatenate([medial[b], line[np.searchsorted(chord_length(line), zones)]])
     branches, axes = _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu)
     paths, path_branches = _paths(V, area, caps, branches, axes, raw, br, root, lam, mu)
     winding = SurfaceWinding(V, F, area, topo.boundary_loops)  # one set of samples for every path
@@ -456,10 +471,39 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
         check_axis_inside(V, F, p.s, p.centers, p.radii, winding=winding)
     for b, z in zip(branches, zone):  # not the paths, nor a junction zone: they turn there by design
         check_cylinder_bend(b, winding.scale, skip_start=z)
+    medial = tuple(_zone_s(a, m) for a, m in zip(axes, medial))
     return VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
                       path_branches=tuple(path_branches), vertex_branch=br.vertex_branch,
-                      junction_zone=zone)
+                      junction_zone=zone, medial_zones=medial)
+
+
+def _through_junctions(b, br, junctions, junction_branch):
+    """Branch ``b``'s centre line from its junction (led in, :func:`_led_in`) to its own distal junction,
+    and the inscribed radius along it (its first point's through the lead-in, the junction's at its end)."""
+    parts, radii = [br.lines[b]], [br.line_radius[b]]
+    if br.parent[b] >= 0:
+        J = junctions[np.flatnonzero(junction_branch == br.parent[b])[0]]
+        lead = br.lead_in[b]
+        i = int(np.argmin(np.linalg.norm(lead - J, axis=1))) if len(lead) else 0
+        lead = np.vstack([J, lead[i + 1:]])
+        parts.insert(0, lead)
+        radii.insert(0, np.full(len(lead), br.line_radius[b][0]))
+    own = np.flatnonzero(junction_branch == b)
+    if own.size:
+        parts.append(junctions[own[0]][None])
+        radii.append(np.array([br.junction_radius[b]]))
+    P, R = np.vstack(parts), np.concatenate(radii)
+    keep = np.r_[True, np.linalg.norm(np.diff(P, axis=0), axis=1) > 0]
+    return P[keep], R[keep]
+
+
+def _zone_s(axis, ends):
+    """The normalised arc lengths on ``axis`` nearest to each zone's end points: (z, 2) float64."""
+    if not len(ends):
+        return np.zeros((0, 2))
+    k = cKDTree(axis.points).query(ends.reshape(-1, 3))[1]
+    return np.sort(axis.s[k].reshape(-1, 2), axis=1)
 
 
 def _branch_problems(V, area, ends, root, br):

@@ -1,0 +1,75 @@
+"""Every real mesh of ../shared/data/real through vesselgp's tree fit, beside VMTK's stored lines (issue #34).
+
+Prints one row per mesh: its ends, the paths fitted (or the refusal), the fraction of interior path
+samples inside the lumen (libigl's winding number of the surface closed by fans, >= 0.5) and at least
+0.2 local radii from the wall, the mean and worst distance from VMTK's centre lines (stored in
+``vmtk/<mesh>.npz``, VMTK 1.5.2) to our paths in VMTK's inscribed radii, the branches whose axis is
+the centre line somewhere (``VesselTree.medial_zones``) and the fit's time.
+
+    python scripts/real_meshes.py [--data ../shared/data/real]
+
+VMTK's own times are not re-run here (they are in the issue and need ../shared/peers/vmtk's
+environment); the stored lines are VMTK's output on these files.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import igl
+import numpy as np
+from scipy.spatial import cKDTree
+
+import vesselgp
+from vesselgp.curves import chord_length
+from vesselgp.mesh import mesh_topology
+from vesselgp.mesh._geometry import closed_by_fans
+
+#: the files' units, to mm (SOURCES.md)
+TO_MM = {"gmsh_aortic-arch_open.stl": 1000.0, "gmsh_carotid-bifurcation_open.stl": 10.0}
+
+
+def _row(path):
+    V, F = vesselgp.read_mesh(path)[:2]
+    V = V * TO_MM.get(path.name, 1.0)
+    t = time.perf_counter()
+    try:
+        tree = vesselgp.fit_vessel_tree(V, F)
+    except ValueError as e:
+        return [path.name, "-", "refused", "-", "-", "-", f"{time.perf_counter() - t:.2f}", str(e).split(";")[0][:70]]
+    dt = time.perf_counter() - t
+    Vc, Fc = closed_by_fans(V, F, mesh_topology(F, len(V)).boundary_loops)
+    inside, clear, n = 0, 0, 0
+    for p in tree.paths:
+        arc = chord_length(p.dense_points)
+        r0, r1 = (tree.ends[e].radius for e in p.ends)
+        Q = p.dense_points[(arc > r0) & (arc[-1] - arc > r1)]
+        r = p.radius_at(p.dense_s[(arc > r0) & (arc[-1] - arc > r1)])
+        inside += int((np.abs(igl.fast_winding_number(Vc, Fc, Q)) >= 0.5).sum())
+        clear += int((np.sqrt(igl.point_mesh_squared_distance(Q, V, F)[0]) >= 0.2 * r).sum())
+        n += len(Q)
+    ref = np.load(path.parent / "vmtk" / f"{path.name}.npz")
+    dense = cKDTree(np.vstack([p.dense_points for p in tree.paths]))
+    d = np.concatenate([dense.query(ref[f"line{k}_points"])[0] / ref[f"line{k}_radius"]
+                        for k in range(sum(f.endswith("_points") for f in ref.files))])
+    zoned = sum(1 for z in tree.medial_zones if len(z))
+    return [path.name, str(len(tree.ends)), f"{len(tree.paths)} paths", f"{100 * inside / n:.1f} / {100 * clear / n:.1f}",
+            f"{d.mean():.3f} / {d.max():.2f}", f"{zoned} of {len(tree.branches)}", f"{dt:.2f}", ""]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", default=str(Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
+    args = ap.parse_args()
+    files = sorted(p for p in Path(args.data).iterdir() if p.suffix in (".stl", ".vtp", ".ply", ".obj"))
+    head = ["mesh", "ends", "fit", "inside / clear (%)", "VMTK line to path (r): mean / worst",
+            "branches with medial zones", "time (s)", "refusal"]
+    print("| " + " | ".join(head) + " |")
+    print("|" + "---|" * len(head))
+    for f in files:
+        print("| " + " | ".join(_row(f)) + " |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

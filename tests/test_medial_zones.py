@@ -1,0 +1,83 @@
+"""Where the tube model does not hold, the axis is the centre line (issue #34, vesselgp.medial_zones).
+
+Truth is analytic: a straight centre line along x with unit inscribed radius and fitted axes displaced
+from it by known offsets (a Gaussian bump, a sac's pull; a U-turn, a stub's sliding end; an overshoot
+past a junction).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vesselgp import tolerances as tol
+from vesselgp.medial_zones import medial_zones
+
+T = np.linspace(0.0, 20.0, 81)
+LINE = np.c_[T, 0 * T, 0 * T]
+ONES = np.ones(81)
+
+
+def _bump(height, width=1.5):
+    return LINE + np.c_[0 * T, height * np.exp(-((T - 10.0) / width) ** 2), 0 * T]
+
+
+def test_a_sideways_pull_becomes_the_centre_line_over_the_departure_and_a_radius():
+    """A fit bulging 1.2 radii sideways departs by more than half a radius for |t - 10| < 1.5 sqrt(ln 2.4)
+    = 1.403: the zone covers that, widened by one radius (to a quarter-radius sample), and inside it the
+    axis is the line (y = 0); beyond the zone and its two-radius blend the fit is kept."""
+    out, zones = medial_zones(_bump(1.2), LINE, ONES, 1.0)
+    half = 1.5 * np.sqrt(np.log(2.4))
+    assert zones.shape == (1, 2)
+    z0, z1 = zones[0]
+    assert 10 - half - 1.0 - 0.26 <= z0 <= 10 - half - 1.0 + 0.5
+    assert 10 + half + 1.0 - 0.5 <= z1 <= 10 + half + 1.0 + 0.26
+    mid = (out[:, 0] > z0 + 0.3) & (out[:, 0] < z1 - 0.3)
+    assert np.abs(out[mid, 1:]).max() < 1e-6  # the equal-arc resample's spline, to 2e-8
+    far = np.abs(out[:, 0] - 10.0) > 10 - z0 + tol.TREE_MEDIAL_BLEND + 0.3
+    truth = 1.2 * np.exp(-((out[far, 0] - 10.0) / 1.5) ** 2)
+    np.testing.assert_allclose(out[far, 1], truth, atol=1e-3)
+
+
+@pytest.mark.parametrize("height, departs", [(0.45, False), (0.55, True)])
+def test_the_departure_guard_at_its_edge(height, departs):
+    """Half an inscribed radius: a bump of 0.45 radii is the tube model's (the input comes back as it is);
+    one of 0.55 radii is not."""
+    fit = _bump(height)
+    out, zones = medial_zones(fit, LINE, ONES, 1.0)
+    assert (len(zones) > 0) == departs
+    if not departs:
+        assert out is fit
+
+
+def test_the_departure_is_measured_in_the_local_inscribed_radius():
+    """The same 0.55 bump departs on a line of inscribed radius 1 and not on one of radius 1.2 (0.46 R)."""
+    assert len(medial_zones(_bump(0.55), LINE, ONES, 1.0)[1]) == 1
+    assert len(medial_zones(_bump(0.55), LINE, 1.2 * ONES, 1.0)[1]) == 0
+
+
+def test_a_stub_that_slid_along_itself_becomes_its_centre_line():
+    """A stub's first fit that runs out 1.5 radii sideways and back (a U over the whole short line, as the
+    gmsh arch's left subclavian did) is replaced by the line throughout: every output point on y = z = 0,
+    from the line's start to its end."""
+    t = np.linspace(0.0, 3.0, 13)
+    line = np.c_[t, 0 * t, 0 * t]
+    u = np.linspace(0, np.pi, 30)
+    fit = np.c_[1.5 - 1.5 * np.cos(u), 1.5 * np.sin(u), 0 * u]
+    out, zones = medial_zones(fit, line, np.ones(13), 1.0)
+    assert np.abs(out[:, 1:]).max() < 1e-6
+    np.testing.assert_allclose([out[:, 0].min(), out[:, 0].max()], [0.0, 3.0], atol=1e-6)
+
+
+@pytest.mark.parametrize("through", [False, True])
+def test_an_overshoot_past_a_junction_counts_only_through_it(through):
+    """An axis running on 1.5 radii beyond the line's end, off to the side (a parent's free junction
+    side that slid on): ignored where the line ends at a pinned end, replaced when the line runs to
+    the junction the axis must end at (``through``)."""
+    extra = np.c_[20.0 + np.linspace(0.25, 1.5, 6), np.linspace(0.25, 1.5, 6), 0 * np.arange(6)]
+    fit = np.vstack([LINE, extra])
+    out, zones = medial_zones(fit, LINE, ONES, 1.0, through=(False, through))
+    if through:
+        assert zones[-1, 1] == pytest.approx(20.0)
+        np.testing.assert_allclose(out[-1], [20.0, 0.0, 0.0], atol=1e-9)
+    else:
+        assert len(zones) == 0 and out is fit

@@ -1,0 +1,136 @@
+"""Where the tube model does not describe the lumen, the axis is the lumen's centre line (issue #34).
+
+The Eq. 3 fixed point puts a branch's axis at the weighted mean of its wall's sections. That is
+the centre of a tube, and stays within about a tenth of the inscribed radius of the lumen's
+medial centre line (:func:`vesselgp.centerlines.centerlines`) on real branches and a fiftieth
+on the synthetic trees. Where the wall is not a tube around one axis, the mean is not the
+centre and the fit can wander off it, then kink back (``kappa r`` of 2 to 5 on the real meshes):
+
+* a sac (an aneurysm) pulls the mean into its dome;
+* a stub, a branch whose own length past its junction zone is a radius or two, has for its
+  wall mostly its junction's flare, and its free junction side slides towards its tip;
+* a fold or a turn tighter than the smoothing of Eq. 2 lets the fit cut the corner.
+
+:func:`medial_zones` finds the stretches where the fitted axis is farther than
+``tolerances.TREE_MEDIAL_DEPARTURE`` inscribed radii from the branch's centre line, widens
+them by ``TREE_MEDIAL_MARGIN`` radii, and there replaces the axis by the centre line, blended
+back into the fit over ``TREE_MEDIAL_BLEND`` radii (a smoothstep of the offset). Elsewhere the
+fit is untouched. The stretches are returned so that the result can say where the axis is the
+centre line rather than the tube model's fit (:attr:`vesselgp.VesselTree.medial_zones`): VMTK
+takes the centre line everywhere; vesselgp where the tube model cannot.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from . import tolerances as tol
+from .curves import chord_length, resample_arclength
+
+__all__ = ["medial_zones"]
+
+
+def _feet(X, L, aL):
+    """Each point's foot on the polyline ``L`` (arc lengths ``aL``): its arc length and position.
+
+    The nearest vertex of ``L`` (a k-d tree), then the nearer of the projections onto the two
+    segments at that vertex.
+    """
+    near = cKDTree(L).query(X)[1]
+    best_a, best_p = aL[near].copy(), L[near].copy()
+    best_d = np.linalg.norm(X - best_p, axis=1)
+    for lo in (near - 1, near):
+        ok = (lo >= 0) & (lo < len(L) - 1)
+        i = np.clip(lo, 0, len(L) - 2)
+        seg = L[i + 1] - L[i]
+        t = np.clip(np.einsum("ij,ij->i", X - L[i], seg) / np.maximum(np.einsum("ij,ij->i", seg, seg), np.finfo(np.float64).tiny),
+                    0.0, 1.0)
+        p = L[i] + t[:, None] * seg
+        d = np.linalg.norm(X - p, axis=1)
+        better = ok & (d < best_d)
+        best_a[better] = (aL[i] + t * (aL[i + 1] - aL[i]))[better]
+        best_p[better], best_d[better] = p[better], d[better]
+    return best_a, best_p, best_d
+
+
+def _runs(mask):
+    """Start and end index (inclusive) of each run of True in ``mask``: (k, 2) int64."""
+    m = np.concatenate([[False], mask, [False]]).astype(np.int8)
+    d = np.diff(m)
+    return np.c_[np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1]
+
+
+def medial_zones(nodes, line, radius, rscale, *, through=(False, False)):
+    """A branch's fitted axis with the stretches far from its centre line replaced by the line.
+
+    Parameters
+    ----------
+    nodes : (K, 3) float64
+        The fitted axis (the Eq. 3 fixed point's nodes), in the line's direction.
+    line : (k, 3) float64
+        The branch's medial centre line (:class:`vesselgp.branches.Branching` ``lines``).
+    radius : (k,) float64
+        The inscribed-sphere radius along it.
+    rscale : float
+        The branch's radius scale (samples the axis about every quarter of it).
+    through : (bool, bool), optional
+        Whether the line's start / end is where the axis must end too (a junction the line runs
+        through): the axis's points beyond it are compared with it as well. By default only axis
+        points whose foot lies strictly inside the line are: before its start a child's first fit
+        crosses its junction zone (led in along its centre line later), and a line ending at the
+        root's or a tip's centre has the fit pinned there.
+
+    Returns
+    -------
+    nodes : (K, 3) float64
+        The axis, resampled to ``K`` points at equal arc length (the input itself when nothing
+        departs).
+    zones : (z, 2) float64
+        The arc-length intervals of ``line`` where the axis is the line (empty when none).
+
+    Examples
+    --------
+    A straight line and a fit that bulges 1.2 radii sideways in its middle (a sac's pull): the
+    middle becomes the line. It departs by more than half a radius for ``|t - 10| < 1.40``; the zone
+    is that widened by one radius, on the axis's samples every quarter radius.
+
+    >>> t = np.linspace(0.0, 20.0, 81)
+    >>> line = np.c_[t, 0 * t, 0 * t]
+    >>> fit = line + np.c_[0 * t, 1.2 * np.exp(-((t - 10.0) / 1.5) ** 2), 0 * t]
+    >>> out, zones = medial_zones(fit, line, np.ones(81), 1.0)
+    >>> float(abs(out[:, 1]).max()) < 0.5, zones.round(1).tolist()
+    (True, [[8.0, 12.0]])
+    """
+    line = np.asarray(line, np.float64)
+    R = np.asarray(radius, np.float64)
+    aL = chord_length(line)
+    n = int(np.clip(chord_length(nodes)[-1] / (0.25 * rscale), len(nodes), 4000))
+    X = resample_arclength(nodes, n)
+    a, foot, d = _feet(X, line, aL)
+    Ri = np.interp(a, aL, R)
+    inner = ((a > 0.0) | through[0]) & ((a < aL[-1]) | through[1])
+    bad = inner & (d > tol.TREE_MEDIAL_DEPARTURE * Ri)
+    if not bad.any():
+        return nodes, np.zeros((0, 2))
+    # the line's points within TREE_MEDIAL_MARGIN radii (along it) of a departing point
+    lo, hi = a[bad] - tol.TREE_MEDIAL_MARGIN * Ri[bad], a[bad] + tol.TREE_MEDIAL_MARGIN * Ri[bad]
+    order = np.argsort(lo)
+    lo, hi = lo[order], np.maximum.accumulate(hi[order])
+    k = np.searchsorted(lo, aL, side="right") - 1
+    marked = (k >= 0) & (aL <= hi[np.maximum(k, 0)])
+    runs = _runs(marked)
+    zones = np.c_[aL[runs[:, 0]], aL[runs[:, 1]]]
+    # smoothstep weight by the arc-length distance to the nearest zone, over TREE_MEDIAL_BLEND radii
+    gap = np.min(np.maximum(0.0, np.maximum(zones[:, :1] - a[None], a[None] - zones[:, 1:2])), axis=0)
+    u = np.clip(1.0 - gap / (tol.TREE_MEDIAL_BLEND * Ri), 0.0, 1.0)
+    w = u * u * (3.0 - 2.0 * u)
+    inside = np.zeros(len(a), bool)
+    for z0, z1 in zones:
+        inside |= (a >= z0) & (a <= z1)
+    moved = (1.0 - w[:, None]) * X + w[:, None] * foot
+    kept = ~inside
+    P = np.concatenate([moved[kept], line[marked]])
+    key = np.concatenate([a[kept], aL[marked]])
+    P = P[np.argsort(key, kind="stable")]
+    keep = np.r_[True, np.linalg.norm(np.diff(P, axis=0), axis=1) > 0]
+    return resample_arclength(P[keep], len(nodes)), zones
