@@ -36,6 +36,9 @@ def test_fit_writes_the_tree(tree_file, tmp_path, capsys):
     d = json.loads((out / "tree.json").read_text())
     assert d["n_ends"] == 3 and d["units"] == "mm" and len(d["paths"]) == 2
     assert [b["parent"] for b in d["branches"]] == [-1, 0, 0]
+    # a smooth synthetic Y is a tube throughout: children led in through their zone, no medial zone
+    assert d["branches"][0]["junction_zone"] == 0 and all(b["junction_zone"] > 0 for b in d["branches"][1:])
+    assert all(b["medial_zones"] == [] for b in d["branches"])
     J, R = t.truth.junctions
     assert np.linalg.norm(np.array(d["junctions"][0]["point"]) - J[0]) < 0.5 * R[0]
     # VTP: one line per branch, VMTK's radius name beside ours, branch and parent ids per line

@@ -369,7 +369,9 @@ def tree_to_dict(tree, units="mm"):
         return {"id": b, "parent": int(tree.parent[b]), "ends": list(gc.ends), "length": gc.length,
                 "mean_radius": gc.mean_radius, "iterations": gc.iterations, "converged": gc.converged,
                 "n_vertices": int(np.count_nonzero(tree.vertex_branch == b)), "s": gc.s, "centers": gc.centers,
-                "radii": gc.radii, "frames": {"T": gc.frames[:, 0], "U": gc.frames[:, 1], "V": gc.frames[:, 2]}}
+                "radii": gc.radii, "frames": {"T": gc.frames[:, 0], "U": gc.frames[:, 1], "V": gc.frames[:, 2]},
+                "junction_zone": float(tree.junction_zone[b]),
+                "medial_zones": [[float(a), float(c)] for a, c in tree.medial_zones[b]]}
     return {
         "units": units, "n_ends": len(tree.ends), "root": tree.root,
         "ends": [{"index": i, "kind": e.kind, "radius": float(e.radius), "center": np.asarray(e.center, float),
