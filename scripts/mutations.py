@@ -148,7 +148,7 @@ MUTATIONS = {
     ),
     "tree_junction_not_held_in_zone": (
         "vesselgp/tree.py",
-        "    return J if off <= R0 else J0 + (J - J0) * (R0 / off)",
+        "    return J if off <= hold else J0 + (J - J0) * (hold / off)",
         "    return J",
         ["tests/test_tree.py::test_junction_is_where_the_branch_lines_meet_held_within_the_zone"],
     ),
@@ -442,9 +442,9 @@ MUTATIONS = {
     ),
     "tree_junction_held_a_whole_radius": (
         "vesselgp/tree.py",
-        "tol.TREE_JUNCTION_HOLD * junction_radius[b]",
-        "junction_radius[b]",
-        ["tests/test_real_trees.py", "tests/test_twist.py"],
+        "    off, hold = np.linalg.norm(J - J0), tol.TREE_JUNCTION_HOLD * R0",
+        "    off, hold = np.linalg.norm(J - J0), R0",
+        ["tests/test_tree.py::test_junction_is_where_the_branch_lines_meet_held_within_the_zone"],
     ),
     "vertex_components_one_direction": (
         "vesselgp/mesh/topology.py",

@@ -49,8 +49,8 @@ def _row(path):
     for p in tree.paths:
         arc = chord_length(p.dense_points)
         r0, r1 = (tree.ends[e].radius for e in p.ends)
-        Q = p.dense_points[(arc > r0) & (arc[-1] - arc > r1)]
-        r = p.radius_at(p.dense_s[(arc > r0) & (arc[-1] - arc > r1)])
+        inner = (arc > r0) & (arc[-1] - arc > r1)
+        Q, r = p.dense_points[inner], p.radius_at(p.dense_s[inner])
         inside += int((np.abs(igl.fast_winding_number(Vc, Fc, Q)) >= 0.5).sum())
         clear += int((np.sqrt(igl.point_mesh_squared_distance(Q, V, F)[0]) >= 0.2 * r).sum())
         n += len(Q)

@@ -523,7 +523,7 @@ def fit_generalized_cylinder(
     axis = Axis(it.nodes, initial_normal)
     s_raw = axis.project(V, it.s if sub.step == 1 else _spread_to_neighbours(topo.adjacency, sub, it.s), None)
     gc = cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids)
-    check_axis_inside(V, F, gc.s, gc.centers, gc.radii, area=wall_area, loops=topo.boundary_loops)
+    check_axis_inside(V, F, gc.s, gc.centers, gc.radii, loops=topo.boundary_loops)
     check_cylinder_bend(gc, bbox_diagonal(V))
     return gc
 

@@ -46,14 +46,12 @@ class SurfaceWinding:
     ----------
     V : (n, 3) float64
     F : (m, 3) int64
-    area : (n,) float64, optional
-        Not used (kept for the callers that pass it).
     loops : sequence of (k,) int64, optional
         Boundary loops following the faces' orientation
         (:attr:`vesselgp.mesh.MeshTopology.boundary_loops`, computed when omitted).
     """
 
-    def __init__(self, V, F, area=None, loops=None):
+    def __init__(self, V, F, loops=None):
         if loops is None:
             loops = mesh_topology(F, len(V)).boundary_loops
         self.shape = (len(V), len(F))
@@ -71,7 +69,7 @@ class SurfaceWinding:
         return np.asarray(w, np.float64), np.sqrt(d2)
 
 
-def axis_winding(V, F, Q, area=None, loops=None):
+def axis_winding(V, F, Q, loops=None):
     """Generalized winding number of the closed surface at query points, and their distance to it.
 
     Parameters
@@ -80,8 +78,6 @@ def axis_winding(V, F, Q, area=None, loops=None):
     F : (m, 3) int64
     Q : (q, 3) float64
         Query points (axis samples).
-    area : (n,) float64, optional
-        Not used (kept for the callers that pass it).
     loops : sequence of (k,) int64, optional
         Boundary loops following the faces' orientation
         (:attr:`vesselgp.mesh.MeshTopology.boundary_loops`, computed when omitted).
@@ -93,10 +89,10 @@ def axis_winding(V, F, Q, area=None, loops=None):
     d : (q,) float64
         Distance to the surface (its nearest face).
     """
-    return SurfaceWinding(V, F, area, loops)(Q)
+    return SurfaceWinding(V, F, loops)(Q)
 
 
-def check_axis_inside(V, F, s, points, radii, *, area=None, loops=None, ends_margin=None, winding=None):
+def check_axis_inside(V, F, s, points, radii, *, loops=None, ends_margin=None, winding=None):
     """Raise :class:`NotTubularError` when the axis leaves the surface or grazes its wall.
 
     Parameters
@@ -109,16 +105,14 @@ def check_axis_inside(V, F, s, points, radii, *, area=None, loops=None, ends_mar
         Axis samples.
     radii : (q,) float64
         Fitted radius at each sample.
-    area : (n,) float64, optional
-        Voronoi areas of the vertices.
     loops : sequence of (k,) int64, optional
         The mesh's boundary loops (see :func:`axis_winding`).
     ends_margin : float, optional
         Samples within this arc length of either end are not checked (an axis
         end sits on a cap or a loop's centre). Default: one mean radius.
     winding : SurfaceWinding, optional
-        The samples of this mesh when already built (several axes of one mesh);
-        ``area`` and ``loops`` are then not used.
+        This mesh's closed surface and distance tree when already built (several axes of
+        one mesh); ``loops`` is then not used.
 
     Raises
     ------
@@ -131,7 +125,7 @@ def check_axis_inside(V, F, s, points, radii, *, area=None, loops=None, ends_mar
     if not keep.any():
         return
     if winding is None:
-        winding = SurfaceWinding(V, F, area, loops)
+        winding = SurfaceWinding(V, F, loops)
     elif winding.shape != (len(V), len(F)):
         raise OptionError(f"winding was built for a mesh of {winding.shape[0]} vertices and {winding.shape[1]} "
                           f"faces, not this one ({len(V)}, {len(F)}); build SurfaceWinding(V, F) of this mesh")

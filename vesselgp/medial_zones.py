@@ -21,8 +21,8 @@ takes the centre line everywhere; vesselgp where the tube model cannot.
 """
 from __future__ import annotations
 
+import igl
 import numpy as np
-from scipy.spatial import cKDTree
 
 from . import tolerances as tol
 from .curves import chord_length, resample_arclength
@@ -31,26 +31,13 @@ __all__ = ["medial_zones"]
 
 
 def _feet(X, L, aL):
-    """Each point's foot on the polyline ``L`` (arc lengths ``aL``): its arc length and position.
+    """Each point's foot on the polyline ``L`` (arc lengths ``aL``): its arc length, position and distance.
 
-    The nearest vertex of ``L`` (a k-d tree), then the nearer of the projections onto the two
-    segments at that vertex.
+    libigl's point-to-mesh distance with the polyline's segments as the elements.
     """
-    near = cKDTree(L).query(X)[1]
-    best_a, best_p = aL[near].copy(), L[near].copy()
-    best_d = np.linalg.norm(X - best_p, axis=1)
-    for lo in (near - 1, near):
-        ok = (lo >= 0) & (lo < len(L) - 1)
-        i = np.clip(lo, 0, len(L) - 2)
-        seg = L[i + 1] - L[i]
-        t = np.clip(np.einsum("ij,ij->i", X - L[i], seg) / np.maximum(np.einsum("ij,ij->i", seg, seg), np.finfo(np.float64).tiny),
-                    0.0, 1.0)
-        p = L[i] + t[:, None] * seg
-        d = np.linalg.norm(X - p, axis=1)
-        better = ok & (d < best_d)
-        best_a[better] = (aL[i] + t * (aL[i + 1] - aL[i]))[better]
-        best_p[better], best_d[better] = p[better], d[better]
-    return best_a, best_p, best_d
+    E = np.c_[np.arange(len(L) - 1), np.arange(1, len(L))]
+    d2, seg, foot = igl.point_mesh_squared_distance(X, L, E)
+    return aL[seg] + np.linalg.norm(foot - L[seg], axis=1), foot, np.sqrt(d2)
 
 
 def _runs(mask):
@@ -72,7 +59,7 @@ def medial_zones(nodes, line, radius, rscale, *, through=(False, False)):
     radius : (k,) float64
         The inscribed-sphere radius along it.
     rscale : float
-        The branch's radius scale (samples the axis about every quarter of it).
+        The branch's radius scale (the axis is compared every ``tolerances.TREE_MEDIAL_SAMPLING`` of it).
     through : (bool, bool), optional
         Whether the line's start / end is where the axis must end too (a junction the line runs
         through): the axis's points beyond it are compared with it as well. By default only axis
@@ -104,7 +91,8 @@ def medial_zones(nodes, line, radius, rscale, *, through=(False, False)):
     line = np.asarray(line, np.float64)
     R = np.asarray(radius, np.float64)
     aL = chord_length(line)
-    n = int(np.clip(chord_length(nodes)[-1] / (0.25 * rscale), len(nodes), 4000))
+    n = int(np.clip(chord_length(nodes)[-1] / (tol.TREE_MEDIAL_SAMPLING * rscale), len(nodes),
+                    tol.TREE_MEDIAL_MAX_SAMPLES))
     X = resample_arclength(nodes, n)
     a, foot, d = _feet(X, line, aL)
     Ri = np.interp(a, aL, R)

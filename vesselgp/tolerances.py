@@ -527,6 +527,10 @@ TREE_MEDIAL_DEPARTURE = 0.5
 TREE_MEDIAL_MARGIN = 1.0
 #: ... and blended back into the fitted axis over this many radii beyond that (a smoothstep).
 TREE_MEDIAL_BLEND = 2.0
+#: The fitted axis is compared with the centre line every this many radii ...
+TREE_MEDIAL_SAMPLING = 0.25
+#: ... at most at this many points per branch.
+TREE_MEDIAL_MAX_SAMPLES = 4000
 #: Opacity of the mesh in the tree picture of ``vesselgp fit`` (the axis network shows through).
 VIZ_TREE_ALPHA = 0.35
 

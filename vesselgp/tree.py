@@ -14,8 +14,8 @@ generalized cylinders (paper Section 2.1-2.2, applied branch by branch):
    The shared trunk is fitted once, not once per path.
 3. **Junctions.** A junction is the point closest, in least squares, to the
    lines continuing the parent's distal end and the children's proximal ends
-   (centre lines of a bifurcation meet at a corner), held within the inscribed
-   sphere where the centre lines part. The parent's axis is linked to it; each
+   (centre lines of a bifurcation meet at a corner), held within half the
+   inscribed radius of where the centre lines part. The parent's axis is linked to it; each
    child is led in from it along its centre line through the junction zone (a
    straight link cut through the wall where a thin branch leaves a wide trunk).
 4. **Frames.** The trunk's RMF starts as a single vessel's; each child's RMF
@@ -207,8 +207,9 @@ def _junction_point(parent_line, child_lines, J0, R0):
     The point closest in least squares to the lines continuing the parent's distal end and
     the children's proximal ends (centre lines of a bifurcation meet at a corner), weakly
     pulled (``TREE_JUNCTION_ANCHOR``) to the centre lines' junction ``J0``; a result farther
-    than the inscribed radius ``R0`` there from ``J0`` is brought back onto that sphere (the
-    lines of a branch leaving along its parent, nearly parallel, meet anywhere).
+    than ``TREE_JUNCTION_HOLD`` of the inscribed radius ``R0`` there from ``J0`` is brought back
+    onto that sphere (the lines of a branch leaving along its parent, nearly parallel, meet
+    anywhere, and the parent's axis kinked to reach them).
     """
     A = tol.TREE_JUNCTION_ANCHOR * np.eye(3)
     b = tol.TREE_JUNCTION_ANCHOR * J0
@@ -216,8 +217,8 @@ def _junction_point(parent_line, child_lines, J0, R0):
         P = np.eye(3) - np.outer(dc, dc)
         A, b = A + P, b + P @ a
     J = np.linalg.solve(A, b)
-    off = np.linalg.norm(J - J0)
-    return J if off <= R0 else J0 + (J - J0) * (R0 / off)
+    off, hold = np.linalg.norm(J - J0), tol.TREE_JUNCTION_HOLD * R0
+    return J if off <= hold else J0 + (J - J0) * (hold / off)
 
 
 def _hermite(a, ta, b, tb, k):
@@ -268,8 +269,7 @@ def _led_in(nodes, J, lead, line, rscale):
     if len(keep) < 2:
         raise NotTubularError("a branch of the tree is shorter than its junction zone; "
                               "the mesh may have a side bulge detected as an end (see vesselgp.vessel_ends)")
-    i = int(np.argmin(np.linalg.norm(lead - J, axis=1)))
-    lead = np.vstack([J, lead[i + 1:]])
+    lead = _lead_from(lead, J)
     before = lead[(lead - p0) @ t_out > tol.TREE_PATH_ROUNDING * rscale]
     before = before if len(before) else lead[:1]  # J itself is closer to p0: one curve from J
     a = before[-1]
@@ -282,12 +282,19 @@ def _led_in(nodes, J, lead, line, rscale):
     return out, float(chord_length(out)[len(out) - len(keep)])
 
 
+def _lead_from(lead, J):
+    """A child's centre line through its junction zone, from ``J`` on: ``J``, then the line's points
+    after its point nearest to ``J`` (a line that parted early from its parent's ran beside it up to there)."""
+    i = int(np.argmin(np.linalg.norm(lead - J, axis=1))) if len(lead) else -1
+    return np.vstack([J, lead[i + 1:]])
+
+
 def _junctions(raw, parent, junctions, junction_radius, lead_in):
     """The junction points, their branches, each branch's nodes joined to its junctions (:func:`_attach`,
     :func:`_led_in`) and the arc length of its junction zone from its start (0 for the trunk).
 
     A junction is where the branch axes' continuations meet (:func:`_junction_point`), within
-    the inscribed sphere of the centre lines' junction (:class:`vesselgp.branches.Branching`:
+    half the inscribed radius of the centre lines' junction (:class:`vesselgp.branches.Branching`:
     where the medial lines part); several children leaving within one junction zone all join
     the same point.
     """
@@ -300,7 +307,7 @@ def _junctions(raw, parent, junctions, junction_radius, lead_in):
             continue
         pline = _end_line(raw[b].nodes, raw[b].rscale, at_start=False)
         clines = [_end_line(raw[c].nodes, raw[c].rscale, at_start=True) for c in kids]
-        Jp = _junction_point(pline, clines, junctions[b], tol.TREE_JUNCTION_HOLD * junction_radius[b])
+        Jp = _junction_point(pline, clines, junctions[b], junction_radius[b])
         nodes[b] = _attach(nodes[b], Jp, pline, raw[b].rscale, at_start=False)
         for c, cl in zip(kids, clines):
             nodes[c], zone[c] = _led_in(nodes[c], Jp, lead_in[c], cl, raw[c].rscale)
@@ -466,7 +473,7 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
         medial[b] = np.concatenate([medial[b], line[np.searchsorted(chord_length(line), zones)]])
     branches, axes = _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu)
     paths, path_branches = _paths(V, area, caps, branches, axes, raw, br, root, lam, mu)
-    winding = SurfaceWinding(V, F, area, topo.boundary_loops)  # one set of samples for every path
+    winding = SurfaceWinding(V, F, topo.boundary_loops)  # one closed surface for every path
     for p in paths:
         check_axis_inside(V, F, p.s, p.centers, p.radii, winding=winding)
     for b, z in zip(branches, zone):  # not the paths, nor a junction zone: they turn there by design
@@ -484,9 +491,7 @@ def _through_junctions(b, br, junctions, junction_branch):
     parts, radii = [br.lines[b]], [br.line_radius[b]]
     if br.parent[b] >= 0:
         J = junctions[np.flatnonzero(junction_branch == br.parent[b])[0]]
-        lead = br.lead_in[b]
-        i = int(np.argmin(np.linalg.norm(lead - J, axis=1))) if len(lead) else 0
-        lead = np.vstack([J, lead[i + 1:]])
+        lead = _lead_from(br.lead_in[b], J)
         parts.insert(0, lead)
         radii.insert(0, np.full(len(lead), br.line_radius[b][0]))
     own = np.flatnonzero(junction_branch == b)
