@@ -412,8 +412,8 @@ MUTATIONS = {
     ),
     "winding_on_the_open_surface": (
         "vesselgp/inside.py",
-        "        w = igl.fast_winding_number(*self._closed, Q)",
-        "        w = igl.fast_winding_number(self._V, self._F, Q)",
+        "        self._bvh.init(*closed_by_fans(self._V, self._F, loops))",
+        "        self._bvh.init(self._V, self._F)",
         ["tests/test_inside.py", "tests/test_real_trees.py"],
     ),
     "wall_distance_squared": (
@@ -424,8 +424,8 @@ MUTATIONS = {
     ),
     "medial_departure_loosened": (
         "vesselgp/medial_zones.py",
-        "    bad = inner & (d > tol.TREE_MEDIAL_DEPARTURE * Ri)",
-        "    bad = inner & (d > 2.0 * tol.TREE_MEDIAL_DEPARTURE * Ri)",
+        "    bad = d > tol.TREE_MEDIAL_DEPARTURE * Ri",
+        "    bad = d > 2.0 * tol.TREE_MEDIAL_DEPARTURE * Ri",
         ["tests/test_medial_zones.py"],
     ),
     "medial_through_ignored": (
@@ -436,9 +436,28 @@ MUTATIONS = {
     ),
     "tree_no_medial_zones_after_junctions": (
         "vesselgp/tree.py",
-        "        nodes[b], zones = medial_zones(nodes[b], line, R, r.rscale, through=(True, True))",
+        "        nodes[b], zones = medial_zones(nodes[b], line, R, r.rscale, through=(True, True), fit_radius=fit_radius,\n"
+        "                                       skip_start=zone[b])",
         "        zones = np.zeros((0, 2))",
         ["tests/test_real_trees.py"],
+    ),
+    "medial_bend_ignored": (
+        "vesselgp/medial_zones.py",
+        "        bad |= sharp",
+        "        bad |= sharp & False",
+        ["tests/test_medial_zones.py", "tests/test_real_trees.py"],
+    ),
+    "medial_bend_judged_in_the_junction_zone": (
+        "vesselgp/medial_zones.py",
+        "        judged = (arc >= margin + skip_start) & (ax.length - arc >= margin)",
+        "        judged = (arc >= margin) & (ax.length - arc >= margin)",
+        ["tests/test_medial_zones.py"],
+    ),
+    "bend_check_skips_no_medial_zone": (
+        "vesselgp/inside.py",
+        "        keep &= (s < z0) | (s > z1)",
+        "        keep &= (s < z0) | (s > z0)",
+        ["tests/test_inside.py"],
     ),
     "tree_junction_held_a_whole_radius": (
         "vesselgp/tree.py",

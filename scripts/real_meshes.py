@@ -6,14 +6,20 @@ samples inside the lumen (libigl's winding number of the surface closed by fans,
 ``vmtk/<mesh>.npz``, VMTK 1.5.2) to our paths in VMTK's inscribed radii, the branches whose axis is
 the centre line somewhere (``VesselTree.medial_zones``) and the fit's time.
 
-    python scripts/real_meshes.py [--data ../shared/data/real]
+    python scripts/real_meshes.py [--data ../shared/data/real] [--vmtk /tmp/peer-vmtk/bin/python]
 
-VMTK's own times are not re-run here (they are in the issue and need ../shared/peers/vmtk's
-environment); the stored lines are VMTK's output on these files.
+With ``--vmtk`` (the Python of ../shared/peers/vmtk's environment, see its README) VMTK runs on each
+mesh too, in mm, from the widest end vesselgp finds to every other (``vmtk_tree.py --delaunay qhull``,
+its fastest configuration), and its time (tessellation, centre lines and branch splitting) is printed
+beside vesselgp's. The lines compared are the stored ones (``tests/data/vmtk`` where a file there
+replaces the shared one).
 """
 from __future__ import annotations
 
 import argparse
+import json
+import subprocess
+import tempfile
 import time
 from pathlib import Path
 
@@ -28,16 +34,38 @@ from vesselgp.mesh._geometry import closed_by_fans
 
 #: the files' units, to mm (SOURCES.md)
 TO_MM = {"gmsh_aortic-arch_open.stl": 1000.0, "gmsh_carotid-bifurcation_open.stl": 10.0}
+ROOT = Path(__file__).resolve().parents[1]
+PEER = ROOT.parent / "shared" / "peers" / "vmtk" / "vmtk_tree.py"
 
 
-def _row(path):
+def _reference(path):
+    """VMTK's stored lines of a mesh: the repository's ``tests/data/vmtk`` file, else the shared one."""
+    local = ROOT / "tests" / "data" / "vmtk" / f"{path.name}.npz"
+    return np.load(local if local.is_file() else path.parent / "vmtk" / f"{path.name}.npz")
+
+
+def _vmtk_seconds(python, V, F, ends, root):
+    """VMTK's time for the same network (widest end to every other), on the mesh in mm."""
+    with tempfile.TemporaryDirectory() as d:
+        stl = Path(d) / "mesh.stl"
+        vesselgp.write_mesh(stl, V, F)
+        targets = [float(x) for k, e in enumerate(ends) if k != root for x in e.center]
+        out = subprocess.run([python, str(PEER), str(stl), "--source", *map(str, ends[root].center),
+                              "--targets", *map(str, targets), "--delaunay", "qhull"],
+                             capture_output=True, text=True, check=True)
+    tm = json.loads(out.stdout.strip().splitlines()[-1])["timings_s"]
+    return tm["qhull_tessellation"] + tm["centerlines"] + tm["branch_extractor"]
+
+
+def _row(path, vmtk=None):
     V, F = vesselgp.read_mesh(path)[:2]
     V = V * TO_MM.get(path.name, 1.0)
     t = time.perf_counter()
     try:
         tree = vesselgp.fit_vessel_tree(V, F)
     except ValueError as e:
-        return [path.name, "-", "refused", "-", "-", "-", f"{time.perf_counter() - t:.2f}", str(e).split(";")[0][:70]]
+        return [path.name, "-", "refused", "-", "-", "-", f"{time.perf_counter() - t:.2f}", "-",
+                str(e).split(";")[0][:70]]
     dt = time.perf_counter() - t
     import pymeshlab  # the winding's orientation from pymeshlab, not from vesselgp's own mending
     ms = pymeshlab.MeshSet()
@@ -54,26 +82,28 @@ def _row(path):
         inside += int((np.abs(igl.fast_winding_number(Vc, Fc, Q)) >= 0.5).sum())
         clear += int((np.sqrt(igl.point_mesh_squared_distance(Q, V, F)[0]) >= 0.2 * r).sum())
         n += len(Q)
-    ref = np.load(path.parent / "vmtk" / f"{path.name}.npz")
+    ref = _reference(path)
     dense = cKDTree(np.vstack([p.dense_points for p in tree.paths]))
     d = np.concatenate([dense.query(ref[f"line{k}_points"])[0] / ref[f"line{k}_radius"]
                         for k in range(sum(f.endswith("_points") for f in ref.files))])
     zoned = sum(1 for z in tree.medial_zones if len(z))
+    tv = "-" if vmtk is None else f"{_vmtk_seconds(vmtk, V, F, tree.ends, tree.root):.2f}"
     return [path.name, str(len(tree.ends)), f"{len(tree.paths)} paths", f"{100 * inside / n:.1f} / {100 * clear / n:.1f}",
-            f"{d.mean():.3f} / {d.max():.2f}", f"{zoned} of {len(tree.branches)}", f"{dt:.2f}", ""]
+            f"{d.mean():.3f} / {d.max():.2f}", f"{zoned} of {len(tree.branches)}", f"{dt:.2f}", tv, ""]
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", default=str(Path(__file__).resolve().parents[2] / "shared" / "data" / "real"))
+    ap.add_argument("--vmtk", help="the Python of ../shared/peers/vmtk's environment, to time VMTK beside")
     args = ap.parse_args()
     files = sorted(p for p in Path(args.data).iterdir() if p.suffix in (".stl", ".vtp", ".ply", ".obj"))
     head = ["mesh", "ends", "fit", "inside / clear (%)", "VMTK line to path (r): mean / worst",
-            "branches with medial zones", "time (s)", "refusal"]
+            "branches with medial zones", "time (s)", "VMTK time (s)", "refusal"]
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for f in files:
-        print("| " + " | ".join(_row(f)) + " |", flush=True)
+        print("| " + " | ".join(_row(f, args.vmtk)) + " |", flush=True)
 
 
 if __name__ == "__main__":

@@ -6,6 +6,8 @@ walking up from this checkout (the workspace keeps ``shared/`` beside the reposi
 from __future__ import annotations
 
 import os
+
+import numpy as np
 from pathlib import Path
 
 
@@ -21,3 +23,15 @@ def _real_dir():
 
 
 REAL = _real_dir()
+
+
+#: VMTK lines kept with the tests; a file here replaces the shared one of the same name (data/vmtk/README.md)
+LOCAL_VMTK = Path(__file__).resolve().parent / "data" / "vmtk"
+
+
+def vmtk_lines(name):
+    """VMTK 1.5.2's centre lines of real mesh ``name`` (mm): a list of (points (k, 3), inscribed radius (k,))."""
+    local = LOCAL_VMTK / f"{name}.npz"
+    ref = np.load(local if local.is_file() else REAL / "vmtk" / f"{name}.npz")
+    return [(ref[f"line{k}_points"].astype(np.float64), ref[f"line{k}_radius"].astype(np.float64))
+            for k in range(sum(f.endswith("_points") for f in ref.files))]

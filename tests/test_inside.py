@@ -117,6 +117,23 @@ def test_bend_check_skips_a_junction_zone_up_to_its_edge():
         check_axis_bend(s, L, T, r, ends_margin=0.0, skip_start=18.0)
 
 
+def test_bend_check_skips_a_medial_zone_up_to_its_edges():
+    """A medial zone (``skip``, intervals of s where a tree branch's axis is the lumen's centre line) is not
+    held to the bend limit either: the corner at arc 17.9-18.1 (s 0.5967-0.6033) passes inside the zone
+    s 0.59-0.61 and is named when the zone stops short of it on either side."""
+    from vesselgp.inside import check_axis_bend
+
+    n, L = 3001, 30.0
+    s = np.linspace(0, 1, n)
+    phi = 0.5 * np.clip((s * L - 18.0) / 0.2 + 0.5, 0, 1)
+    T = np.c_[np.sin(phi), np.zeros(n), np.cos(phi)]
+    r = np.full(n, 0.5)
+    check_axis_bend(s, L, T, r, skip=[[0.2, 0.3], [0.59, 0.61]])
+    for zone in ([0.59, 0.598], [0.602, 0.61]):
+        with pytest.raises(vesselgp.NotTubularError, match="bends tighter than its radius"):
+            check_axis_bend(s, L, T, r, skip=[zone])
+
+
 def _thin_tube(n_around=8, radius=0.4, spacing=0.8, rings=50):
     """An open prism tube along x (regular ``n_around``-gon sections), rings ``spacing`` apart."""
     t = 2 * np.pi * np.arange(n_around) / n_around

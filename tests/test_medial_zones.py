@@ -81,3 +81,43 @@ def test_an_overshoot_past_a_junction_counts_only_through_it(through):
         np.testing.assert_allclose(out[-1], [20.0, 0.0, 0.0], atol=1e-9)
     else:
         assert len(zones) == 0 and out is fit
+
+
+# --------------------------------------------------------------------------- #
+# an axis turning tighter than its radius (kappa r >= 1) while near the line
+# --------------------------------------------------------------------------- #
+T_FINE = np.linspace(0.0, 20.0, 321)
+LINE_FINE = np.c_[T_FINE, 0 * T_FINE, 0 * T_FINE]
+
+
+def _kink(kr, height=0.3):
+    """A Gaussian wiggle of 0.3 radii (no departure) whose curvature at its peak, 2 h / w^2 (y' = 0 there),
+    times the unit radius is ``kr``."""
+    w = np.sqrt(2.0 * height / kr)
+    return LINE_FINE + np.c_[0 * T_FINE, height * np.exp(-((T_FINE - 10.0) / w) ** 2), 0 * T_FINE]
+
+
+@pytest.mark.parametrize("kr, zoned", [(0.85, False), (1.2, True)])
+def test_the_bend_guard_at_its_edge(kr, zoned):
+    """A wiggle 0.3 radii high (inside the departure guard) whose peak turns with kappa r = 0.85 is the tube
+    model's; one with kappa r = 1.2 (its sections would overlap) is the centre line there, the wiggle gone."""
+    fit = _kink(kr)
+    out, zones = medial_zones(fit, LINE_FINE, np.ones(len(T_FINE)), 1.0, fit_radius=np.ones(len(T_FINE)))
+    assert (len(zones) > 0) == zoned
+    if zoned:
+        assert zones.shape == (1, 2) and zones[0, 0] < 10.0 < zones[0, 1]
+        assert np.abs(out[np.abs(out[:, 0] - 10.0) < 0.5, 1]).max() < 1e-3
+    else:
+        assert out is fit
+
+
+def test_the_bend_is_judged_in_the_fitted_radius_and_past_the_junction_zone():
+    """The same wiggle (kappa 2.4 per unit length at its peak): with a fitted radius of 0.3 (kappa r = 0.72)
+    it stays; without a fitted radius only the departure is judged; within ``skip_start`` (a child's junction
+    zone, turning off its parent by design) it is not judged either."""
+    fit = _kink(1.2)
+    ones = np.ones(len(T_FINE))
+    assert len(medial_zones(fit, LINE_FINE, ones, 1.0, fit_radius=0.3 * ones)[1]) == 0
+    assert len(medial_zones(fit, LINE_FINE, ones, 1.0)[1]) == 0
+    assert len(medial_zones(fit, LINE_FINE, ones, 1.0, fit_radius=ones, skip_start=11.5)[1]) == 0
+    assert len(medial_zones(fit, LINE_FINE, ones, 1.0, fit_radius=ones, skip_start=8.0)[1]) == 1

@@ -3,9 +3,8 @@ follow VMTK's centre lines (``shared/data/real/vmtk``, VMTK 1.5.2, a reference m
 
 The truth of "inside" is libigl's winding number of the surface with its open ends closed by fans,
 and the wall distance libigl's point-to-mesh distance, both on the mesh file itself; the local radius
-is VMTK's maximum inscribed sphere at the nearest point of its line. The closed pulmonary artery,
-whose trunk's rounded end ``vessel_ends`` does not find (2 of its 3 ends), is not listed here
-(issue #34 left open).
+is VMTK's maximum inscribed sphere at the nearest point of its line. For the closed pulmonary artery
+VMTK's lines run from the trunk's rounded end (``tests/data/vmtk``: the shared file predates finding it).
 """
 from __future__ import annotations
 
@@ -17,16 +16,24 @@ from scipy.spatial import cKDTree
 import vesselgp
 from vesselgp.curves import chord_length
 
-from _data import REAL
+from _data import REAL, vmtk_lines
 
 MM = {"gmsh_carotid-bifurcation_open.stl": 10.0, "gmsh_aortic-arch_open.stl": 1000.0}
 FITS = ["vmtk_abdominal_aorta_iliac_bifurcation_open.stl", "cardiopinns_aortic-arch-4dflow_capped.stl",
         "gmsh_carotid-bifurcation_open.stl", "palabos_aneurysm-voxelized_closed.stl",
         "gmsh_abdominal-aorta-renal-iliac_open.stl", "gmsh_aortic-arch_open.stl",
-        "gmsh_intracranial-aneurysm_open.stl", "xrayangio_xcat-coronary-tree_open.stl"]
+        "gmsh_intracranial-aneurysm_open.stl", "xrayangio_xcat-coronary-tree_open.stl",
+        "cbcl_pulmonary-artery_closed.vtp"]
 
-#: Issue #34 asks for 10 %; on the coarse gmsh arch (2211 vertices) the fit of the thinnest arch branch
-#: is 0.117 of VMTK's radius off VMTK's line over the 6 mm compared (left open in the issue's note).
+#: Branches whose axis may be the centre line somewhere: on tubes at most half (or 2); the closed
+#: pulmonary artery is three bulbs (a trunk wider than it is long, closed at its valve, and two
+#: branches with a wide junction), each with its zone.
+ZONED = {"cbcl_pulmonary-artery_closed.vtp": 3}
+
+#: Issue #34 asks for 10 %. On the coarse gmsh arch (2211 vertices, 21 around a loop) the 6 mm of its
+#: thinnest branch that lie farther than two inscribed radii from the junction and the end are its
+#: funnel off the arch (VMTK's inscribed radius falls from 7.1 to 3.3 mm over them, the end's is 2.7):
+#: 0.117 of VMTK's radius off VMTK's line there, 0.04-0.07 on the arch's other lines.
 COARSE = {"gmsh_aortic-arch_open.stl": 0.15}
 
 
@@ -50,10 +57,7 @@ def real_tree(request):
     name = request.param
     V, F = vesselgp.read_mesh(REAL / name)[:2]
     V = V * MM.get(name, 1.0)
-    ref = np.load(REAL / "vmtk" / f"{name}.npz")
-    lines = [(ref[f"line{k}_points"].astype(np.float64), ref[f"line{k}_radius"])
-             for k in range(sum(f.endswith("_points") for f in ref.files))]
-    return name, V, F, vesselgp.fit_vessel_tree(V, F), lines
+    return name, V, F, vesselgp.fit_vessel_tree(V, F), vmtk_lines(name)
 
 
 def test_every_path_runs_inside_the_lumen(real_tree):
@@ -104,7 +108,7 @@ def test_the_axis_is_the_centre_line_only_where_the_tube_model_fails(real_tree):
     stubs of the arch branches; elsewhere, on tubes, the fit holds and most branches have none."""
     name, V, F, tree, lines = real_tree
     zoned = [b for b, z in enumerate(tree.medial_zones) if len(z)]
-    assert len(zoned) <= max(2, len(tree.branches) // 2), (name, zoned)
+    assert len(zoned) <= ZONED.get(name, max(2, len(tree.branches) // 2)), (name, zoned)
     if "intracranial" in name:
         trunk = np.median(lines[0][1][:len(lines[0][1]) // 4])
         sac = np.vstack([P[R > 1.3 * trunk] for P, R in lines])
@@ -117,3 +121,23 @@ def test_the_axis_is_the_centre_line_only_where_the_tube_model_fails(real_tree):
                 d, _ = cKDTree(seg).query(sac)
                 covered |= d < 1.5 * trunk
         assert covered.mean() >= 0.8, covered.mean()
+    if "pulmonary" in name:  # the trunk, a bulb closed at its valve, wound about (kappa r 1.9 to 2.6)
+        trunk = tree.medial_zones[0]
+        assert len(trunk) and np.max(trunk[:, 1] - trunk[:, 0]) >= 0.5, trunk
+
+
+def test_closed_pulmonary_artery_has_its_three_rounded_ends():
+    """Issue #34: every end of a closed mesh whose rounded ends differ in size (trunk 8 mm, branches 4.4 and
+    3.2 mm): three rounded ends, the widest the trunk's, each with the radius of the lumen there (VMTK's
+    largest inscribed sphere within two end radii, within 20 %: the trunk's section is not round)."""
+    name = "cbcl_pulmonary-artery_closed.vtp"
+    V, F = vesselgp.read_mesh(REAL / name)[:2]
+    ends = vesselgp.vessel_ends(V, F)
+    assert [e.kind for e in ends] == ["rounded"] * 3
+    P = np.vstack([p for p, _ in vmtk_lines(name)])
+    R = np.concatenate([r for _, r in vmtk_lines(name)])
+    for e in ends:
+        near = np.linalg.norm(P - e.center, axis=1) < 2 * e.radius
+        assert near.any(), e.describe()
+        assert abs(e.radius - R[near].max()) <= 0.2 * R[near].max(), (e.describe(), R[near].max())
+    assert max(ends, key=lambda e: e.radius).radius > 1.5 * sorted(e.radius for e in ends)[1]

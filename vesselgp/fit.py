@@ -528,12 +528,13 @@ def fit_generalized_cylinder(
     return gc
 
 
-def check_cylinder_bend(gc, scale, skip_start=0.0):
+def check_cylinder_bend(gc, scale, skip_start=0.0, skip=None):
     """:func:`vesselgp.inside.check_axis_bend` of a fitted cylinder's dense axis (mesh size ``scale``),
     past the first ``skip_start`` of its arc length (a tree branch's junction zone, led in along the
-    lumen's centre line: anatomy, not the fit)."""
+    lumen's centre line: anatomy, not the fit) and outside the ``skip`` intervals of ``s`` (its
+    medial zones, the centre line too)."""
     check_axis_bend(gc.dense_s, gc.length, gc.dense_frames[:, 0], gc.radius_at(gc.dense_s),
-                    points=gc.dense_points, scale=scale, skip_start=skip_start)
+                    points=gc.dense_points, scale=scale, skip_start=skip_start, skip=skip)
 
 
 def _spread_to_neighbours(adjacency, sub, s_sub):

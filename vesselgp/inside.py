@@ -34,10 +34,10 @@ __all__ = ["SurfaceWinding", "axis_winding", "check_axis_bend", "check_axis_insi
 class SurfaceWinding:
     """The closed surface and the distance tree of one mesh, kept for repeated axis checks.
 
-    Built once per mesh (the fans over the boundary loops, libigl's AABB tree of the faces);
-    each call then costs libigl's ``fast_winding_number`` of the closed triangles (Barill et al.
-    2018, its tree-based sum over the triangles, exact at this resolution) and one distance
-    query per point, so the paths of a tree are checked against one surface. (Until issue #34
+    Built once per mesh (the fans over the boundary loops, libigl's fast-winding-number tree of
+    the closed triangles, ``FastWindingNumberBVH``, and its AABB tree of the faces); each call
+    then costs the winding number's tree-based sum (Barill et al. 2018, exact at this
+    resolution) and one distance query per point, so the paths of a tree are checked against one surface. (Until issue #34
     the sum ran over 3000 thinned vertices as a point cloud: on the XCAT coronary tree's
     0.4 mm branches, sampled too sparsely for it, it put 46 axis points outside that are
     inside.) :func:`axis_winding` is the one-off form.
@@ -56,7 +56,8 @@ class SurfaceWinding:
             loops = mesh_topology(F, len(V)).boundary_loops
         self.shape = (len(V), len(F))
         self._V, self._F = np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int64)
-        self._closed = closed_by_fans(self._V, self._F, loops)
+        self._bvh = igl.FastWindingNumberBVH()  # built once, queried by every path of a tree
+        self._bvh.init(*closed_by_fans(self._V, self._F, loops))
         self._tree = igl.AABB()
         self._tree.init(self._V, self._F)
         self.scale = bbox_diagonal(V)
@@ -64,7 +65,7 @@ class SurfaceWinding:
     def __call__(self, Q):
         """Winding number ``w`` (q,) and distance ``d`` (q,) to the surface of query points ``Q`` (q, 3)."""
         Q = np.ascontiguousarray(Q, dtype=np.float64)
-        w = igl.fast_winding_number(*self._closed, Q)
+        w = self._bvh.winding_number(Q)
         d2 = self._tree.squared_distance(self._V, self._F, Q)[0]
         return np.asarray(w, np.float64), np.sqrt(d2)
 
@@ -146,7 +147,8 @@ def check_axis_inside(V, F, s, points, radii, *, loops=None, ends_margin=None, w
     )
 
 
-def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends_margin=None, skip_start=0.0):
+def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends_margin=None, skip_start=0.0,
+                    skip=None):
     """Raise :class:`NotTubularError` where the axis bends tighter than its radius.
 
     The curvature is ``|dT/ds|`` of the unit tangents by central differences; the
@@ -174,6 +176,9 @@ def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends
     skip_start : float, optional
         Arc length from the start that is not checked either, before the margin (a tree
         branch's junction zone, whose axis is the lumen's centre line, not a fit).
+    skip : (z, 2) float64, optional
+        Intervals of ``s`` not checked either (a tree branch's medial zones, where the axis is
+        the lumen's centre line: :attr:`vesselgp.VesselTree.medial_zones`).
 
     Raises
     ------
@@ -200,6 +205,8 @@ def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends
     radii = np.asarray(radii, np.float64)
     margin = float(np.mean(radii)) if ends_margin is None else float(ends_margin)
     keep = (arc >= margin + float(skip_start)) & (float(length) - arc >= margin)
+    for z0, z1 in np.zeros((0, 2)) if skip is None else np.asarray(skip, np.float64):
+        keep &= (s < z0) | (s > z1)
     bad = keep & (kappa * radii >= tol.GC_MAX_BEND)
     if not bad.any():
         return

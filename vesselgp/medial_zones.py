@@ -9,10 +9,15 @@ centre and the fit can wander off it, then kink back (``kappa r`` of 2 to 5 on t
 * a sac (an aneurysm) pulls the mean into its dome;
 * a stub, a branch whose own length past its junction zone is a radius or two, has for its
   wall mostly its junction's flare, and its free junction side slides towards its tip;
-* a fold or a turn tighter than the smoothing of Eq. 2 lets the fit cut the corner.
+* a fold or a turn tighter than the smoothing of Eq. 2 lets the fit cut the corner;
+* a bulb, a closed rounded end wider than it is long (the pulmonary trunk's), or a section far
+  from round lets it wind within the lumen, turning tighter than its radius (``kappa r >= 1``,
+  the tube's sections would overlap: :func:`vesselgp.inside.check_axis_bend`) while staying
+  near the centre line.
 
 :func:`medial_zones` finds the stretches where the fitted axis is farther than
-``tolerances.TREE_MEDIAL_DEPARTURE`` inscribed radii from the branch's centre line, widens
+``tolerances.TREE_MEDIAL_DEPARTURE`` inscribed radii from the branch's centre line, or turns
+tighter than its fitted radius (``tolerances.GC_MAX_BEND``), widens
 them by ``TREE_MEDIAL_MARGIN`` radii, and there replaces the axis by the centre line, blended
 back into the fit over ``TREE_MEDIAL_BLEND`` radii (a smoothstep of the offset). Elsewhere the
 fit is untouched. The stretches are returned so that the result can say where the axis is the
@@ -25,6 +30,7 @@ import igl
 import numpy as np
 
 from . import tolerances as tol
+from .axis import Axis
 from .curves import chord_length, resample_arclength
 
 __all__ = ["medial_zones"]
@@ -47,7 +53,7 @@ def _runs(mask):
     return np.c_[np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1]
 
 
-def medial_zones(nodes, line, radius, rscale, *, through=(False, False)):
+def medial_zones(nodes, line, radius, rscale, *, through=(False, False), fit_radius=None, skip_start=0.0):
     """A branch's fitted axis with the stretches far from its centre line replaced by the line.
 
     Parameters
@@ -60,6 +66,14 @@ def medial_zones(nodes, line, radius, rscale, *, through=(False, False)):
         The inscribed-sphere radius along it.
     rscale : float
         The branch's radius scale (the axis is compared every ``tolerances.TREE_MEDIAL_SAMPLING`` of it).
+    fit_radius : (K,) float64, optional
+        The fitted radius at each node (the Eq. 4 radii of the fixed point): where the axis turns
+        tighter than it (``kappa r >= tolerances.GC_MAX_BEND``) it is replaced as well, judged
+        where :func:`vesselgp.inside.check_axis_bend` judges it (a mean radius from either end and
+        past ``skip_start``). Without it only the departure from the line is judged.
+    skip_start : float, optional
+        Arc length of the axis from its start where its turn is not judged (a child's junction
+        zone, where it turns off its parent by design).
     through : (bool, bool), optional
         Whether the line's start / end is where the axis must end too (a junction the line runs
         through): the axis's points beyond it are compared with it as well. By default only axis
@@ -97,7 +111,16 @@ def medial_zones(nodes, line, radius, rscale, *, through=(False, False)):
     a, foot, d = _feet(X, line, aL)
     Ri = np.interp(a, aL, R)
     inner = ((a > 0.0) | through[0]) & ((a < aL[-1]) | through[1])
-    bad = inner & (d > tol.TREE_MEDIAL_DEPARTURE * Ri)
+    bad = d > tol.TREE_MEDIAL_DEPARTURE * Ri
+    if fit_radius is not None:  # kappa r on the fit's own dense axis, as check_axis_bend has it
+        ax = Axis(nodes)
+        fr = np.asarray(fit_radius, np.float64)
+        kr = np.linalg.norm(ax.kvec, axis=1) * np.interp(ax.s, np.linspace(0.0, 1.0, len(fr)), fr)
+        arc, margin = ax.s * ax.length, float(fr.mean())
+        judged = (arc >= margin + skip_start) & (ax.length - arc >= margin)
+        sharp = np.interp(np.linspace(0.0, 1.0, n), ax.s, (judged & (kr >= tol.GC_MAX_BEND)).astype(np.float64)) > 0
+        bad |= sharp
+    bad &= inner
     if not bad.any():
         return nodes, np.zeros((0, 2))
     # the line's points within TREE_MEDIAL_MARGIN radii (along it) of a departing point

@@ -428,8 +428,8 @@ ENDS_TIP_RADIUS_TOL = 0.25
 #: ... and rings round: standard deviation of the distance to their centroid below this fraction.
 ENDS_TIP_ROUND_TOL = 0.25
 #: Rounded tips: the dome (within ENDS_TIP_DOME_TO of the equator's distance) fits a sphere
-#: of radius R within ENDS_TIP_RADIUS_TOL, with an rms residual below this fraction of R ...
-ENDS_TIP_SPHERE_RMS = 0.1
+#: of radius R within ENDS_TIP_RADIUS_TOL (how closely is not asked: a real dome is lobed, flat
+#: on top or oblique, like the pulmonary trunk's at its valve, 0.16 R rms from its sphere) ...
 #: ... the tube's face normals are all across one axis (smallest over middle eigenvalue of
 #: their area-weighted scatter below this) ...
 ENDS_TIP_AXIS_SPREAD = 0.3

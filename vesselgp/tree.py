@@ -100,7 +100,8 @@ class VesselTree:
     medial_zones : tuple of (z, 2) float64
         Per branch, the ranges of its normalised arc length ``s`` where the tube model does not
         describe the lumen (a sac, a stub, a fold: the fit departed from the lumen's centre line
-        by more than half an inscribed radius) and the axis is the centre line instead
+        by more than half an inscribed radius; a bulb: it turned tighter than its radius) and the
+        axis is the centre line instead, not held to the bend check
         (:func:`vesselgp.medial_zones.medial_zones`); empty where the fit holds throughout.
     """
 
@@ -463,22 +464,25 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit")
     raw, medial = [], []
     for b, (idx, it, p) in enumerate(zip(ids, fits, problems)):
-        nodes, zones = medial_zones(it.nodes, br.lines[b], br.line_radius[b], p.rscale)
+        nodes, zones = medial_zones(it.nodes, br.lines[b], br.line_radius[b], p.rscale, fit_radius=it.radii)
         raw.append(_RawBranch(idx=idx, nodes=nodes, s=it.s, it=it, rscale=p.rscale))
         medial.append(br.lines[b][np.searchsorted(chord_length(br.lines[b]), zones)])  # (z, 2, 3) ends
     junctions, junction_branch, nodes, zone = _junctions(raw, br.parent, br.junctions, br.junction_radius, br.lead_in)
     for b, r in enumerate(raw):  # again through the junction zones, the axes now joined there
         line, R = _through_junctions(b, br, junctions, junction_branch)
-        nodes[b], zones = medial_zones(nodes[b], line, R, r.rscale, through=(True, True))
+        fit_radius = np.interp(np.linspace(0.0, 1.0, len(nodes[b])), np.linspace(0.0, 1.0, len(r.it.radii)),
+                               r.it.radii)  # the first fit's radii (the junctions moved the ends only)
+        nodes[b], zones = medial_zones(nodes[b], line, R, r.rscale, through=(True, True), fit_radius=fit_radius,
+                                       skip_start=zone[b])
         medial[b] = np.concatenate([medial[b], line[np.searchsorted(chord_length(line), zones)]])
     branches, axes = _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu)
     paths, path_branches = _paths(V, area, caps, branches, axes, raw, br, root, lam, mu)
     winding = SurfaceWinding(V, F, topo.boundary_loops)  # one closed surface for every path
     for p in paths:
         check_axis_inside(V, F, p.s, p.centers, p.radii, winding=winding)
-    for b, z in zip(branches, zone):  # not the paths, nor a junction zone: they turn there by design
-        check_cylinder_bend(b, winding.scale, skip_start=z)
     medial = tuple(_zone_s(a, m) for a, m in zip(axes, medial))
+    for b, z, m in zip(branches, zone, medial):  # not the paths, a junction zone nor a medial zone:
+        check_cylinder_bend(b, winding.scale, skip_start=z, skip=m)  # they turn there by design
     return VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
                       path_branches=tuple(path_branches), vertex_branch=br.vertex_branch,
