@@ -4,7 +4,8 @@ Prints one row per mesh: its ends, the paths fitted (or the refusal), the fracti
 samples inside the lumen (libigl's winding number of the surface closed by fans, >= 0.5) and at least
 0.2 local radii from the wall, the mean and worst distance from VMTK's centre lines (stored in
 ``vmtk/<mesh>.npz``, VMTK 1.5.2) to our paths in VMTK's inscribed radii, the branches whose axis is
-the centre line somewhere (``VesselTree.medial_zones``) and the fit's time.
+the centre line somewhere (``VesselTree.medial_zones``), the bulges (``VesselTree.bulges``: peak radius
+over the radius beside) and the fit's time.
 
     python scripts/real_meshes.py [--data ../shared/data/real] [--vmtk /tmp/peer-vmtk/bin/python]
 
@@ -64,7 +65,7 @@ def _row(path, vmtk=None):
     try:
         tree = vesselgp.fit_vessel_tree(V, F)
     except ValueError as e:
-        return [path.name, "-", "refused", "-", "-", "-", f"{time.perf_counter() - t:.2f}", "-",
+        return [path.name, "-", "refused", "-", "-", "-", "-", f"{time.perf_counter() - t:.2f}", "-",
                 str(e).split(";")[0][:70]]
     dt = time.perf_counter() - t
     import pymeshlab  # the winding's orientation from pymeshlab, not from vesselgp's own mending
@@ -87,9 +88,10 @@ def _row(path, vmtk=None):
     d = np.concatenate([dense.query(ref[f"line{k}_points"])[0] / ref[f"line{k}_radius"]
                         for k in range(sum(f.endswith("_points") for f in ref.files))])
     zoned = sum(1 for z in tree.medial_zones if len(z))
+    bul = ", ".join(f"{b.ratio:.2f}x" for b in tree.bulges) or "-"
     tv = "-" if vmtk is None else f"{_vmtk_seconds(vmtk, V, F, tree.ends, tree.root):.2f}"
     return [path.name, str(len(tree.ends)), f"{len(tree.paths)} paths", f"{100 * inside / n:.1f} / {100 * clear / n:.1f}",
-            f"{d.mean():.3f} / {d.max():.2f}", f"{zoned} of {len(tree.branches)}", f"{dt:.2f}", tv, ""]
+            f"{d.mean():.3f} / {d.max():.2f}", f"{zoned} of {len(tree.branches)}", bul, f"{dt:.2f}", tv, ""]
 
 
 def main():
@@ -99,7 +101,7 @@ def main():
     args = ap.parse_args()
     files = sorted(p for p in Path(args.data).iterdir() if p.suffix in (".stl", ".vtp", ".ply", ".obj"))
     head = ["mesh", "ends", "fit", "inside / clear (%)", "VMTK line to path (r): mean / worst",
-            "branches with medial zones", "time (s)", "VMTK time (s)", "refusal"]
+            "branches with medial zones", "bulges (peak / beside)", "time (s)", "VMTK time (s)", "refusal"]
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for f in files:

@@ -39,6 +39,7 @@ def test_fit_writes_the_tree(tree_file, tmp_path, capsys):
     # a smooth synthetic Y is a tube throughout: children led in through their zone, no medial zone
     assert d["branches"][0]["junction_zone"] == 0 and all(b["junction_zone"] > 0 for b in d["branches"][1:])
     assert all(b["medial_zones"] == [] for b in d["branches"])
+    assert d["bulges"] == [] and summary["bulges"] == []
     J, R = t.truth.junctions
     assert np.linalg.norm(np.array(d["junctions"][0]["point"]) - J[0]) < 0.5 * R[0]
     # VTP: one line per branch, VMTK's radius name beside ours, branch and parent ids per line
@@ -71,3 +72,20 @@ def test_ends_still_pick_one_path(tree_file, tmp_path, capsys):
     assert main(["fit", str(path), "--ends", "0", "1", "-o", str(out), "-q", "--no-png"]) == 0
     names = {p.name for p in out.iterdir()}
     assert "axis.json" in names and "tree.json" not in names
+
+
+def test_fit_reports_a_sac(tmp_path, capsys):
+    """A vessel with a fusiform aneurysm (true peak radius 1.8 x the tube's 1.5 at s = 0.5): the sac is passed
+    through and said in axis.json, the JSON summary and the printed lines."""
+    from vesselgp.synthetic import synthetic_vessel
+
+    v = synthetic_vessel("arc", radius=1.5, bulges=[(0.5, 0.05, 0.8)])
+    path = tmp_path / "sac.ply"
+    write_mesh(path, v.V, v.F)
+    assert main(["fit", str(path), "-o", str(tmp_path / "o"), "--no-png"]) == 0
+    text = capsys.readouterr().out
+    assert "bulge at s 0.4" in text and ("(1.7" in text or "(1.8" in text), text
+    (b,) = json.loads((tmp_path / "o" / "axis.json").read_text())["bulges"]
+    assert abs(b["s_peak"] - 0.5) < 0.01 and abs(b["peak_radius"] - 2.7) < 0.05 and abs(b["neighbour_radius"] - 1.5) < 0.05
+    assert main(["fit", str(path), "-o", str(tmp_path / "j"), "--no-png", "--json"]) == 0
+    assert len(json.loads(capsys.readouterr().out)["bulges"]) == 1

@@ -12,6 +12,7 @@ import igl
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
 
 import vesselgp
 from vesselgp.curves import chord_length
@@ -27,15 +28,11 @@ FITS = ["vmtk_abdominal_aorta_iliac_bifurcation_open.stl", "cardiopinns_aortic-a
 
 #: Branches whose axis may be the centre line somewhere: on tubes at most half (or 2); the closed
 #: pulmonary artery is three bulbs (a trunk wider than it is long, closed at its valve, and two
-#: branches with a wide junction), each with its zone.
-ZONED = {"cbcl_pulmonary-artery_closed.vtp": 3}
-
-#: Issue #34 asks for 10 %. On the coarse gmsh arch (2211 vertices, 21 around a loop) the 6 mm of its
-#: thinnest branch that lie farther than two inscribed radii from the junction and the end are its
-#: funnel off the arch (VMTK's inscribed radius falls from 7.1 to 3.3 mm over them, the end's is 2.7):
-#: 0.117 of VMTK's radius off VMTK's line there, 0.04-0.07 on the arch's other lines.
-COARSE = {"gmsh_aortic-arch_open.stl": 0.15}
-
+#: branches with a wide junction), each with its zone; on the coarse gmsh arch the three arch branches
+#: are stubs 2.5-4.4 radii long on the arch's flare and the arch itself folds between them; on the XCAT
+#: tree the fits of 8 coronaries 0.4 mm across, one edge of the mesh around, do not settle (still
+#: moving 0.07-0.5 radii an iteration), so the centre line is their axis throughout.
+ZONED = {"cbcl_pulmonary-artery_closed.vtp": 3, "gmsh_aortic-arch_open.stl": 4, "xrayangio_xcat-coronary-tree_open.stl": 9}
 
 def _closed(V, F):
     """The surface oriented by pymeshlab (not vesselgp's libigl-based orientation) with its loops closed by fans."""
@@ -97,7 +94,7 @@ def test_paths_follow_vmtk_away_from_junctions_and_ends(real_tree):
         # the path to the same tip: the one nearest to the line's far end
         k = int(np.argmin([t.query(P[-1])[0] for t in dense]))
         d = dense[k].query(P[keep])[0] / R[keep]
-        assert d.mean() <= COARSE.get(name, 0.10), (name, d.mean())
+        assert d.mean() <= 0.10, (name, d.mean())
     assert compared >= (len(lines) + 1) // 2, (name, compared)
 
 
@@ -121,9 +118,9 @@ def test_the_axis_is_the_centre_line_only_where_the_tube_model_fails(real_tree):
                 d, _ = cKDTree(seg).query(sac)
                 covered |= d < 1.5 * trunk
         assert covered.mean() >= 0.8, covered.mean()
-    if "pulmonary" in name:  # the trunk, a bulb closed at its valve, wound about (kappa r 1.9 to 2.6)
-        trunk = tree.medial_zones[0]
-        assert len(trunk) and np.max(trunk[:, 1] - trunk[:, 0]) >= 0.5, trunk
+    if "pulmonary" in name:  # the trunk, a bulb closed at its valve, wound about (kappa r 1.9 to 2.6):
+        trunk = tree.medial_zones[0]  # the centre line from its closed end on
+        assert len(trunk) and trunk[:, 0].min() == 0.0 and np.max(trunk[:, 1] - trunk[:, 0]) >= 0.25, trunk
 
 
 def test_closed_pulmonary_artery_has_its_three_rounded_ends():
@@ -141,3 +138,111 @@ def test_closed_pulmonary_artery_has_its_three_rounded_ends():
         assert near.any(), e.describe()
         assert abs(e.radius - R[near].max()) <= 0.2 * R[near].max(), (e.describe(), R[near].max())
     assert max(ends, key=lambda e: e.radius).radius > 1.5 * sorted(e.radius for e in ends)[1]
+
+
+#: Bulges on the real meshes: the intracranial aneurysm's sac, the voxelised aneurysm (one place, on both
+#: paths), the two common iliac aneurysms of the abdominal aorta; none on the tubes, arches and trees.
+BULGES = {"gmsh_intracranial-aneurysm_open.stl": 1, "palabos_aneurysm-voxelized_closed.stl": 1,
+          "gmsh_abdominal-aorta-renal-iliac_open.stl": 2}
+
+
+def test_sacs_and_dilatations_are_reported_where_vmtk_sees_them(real_tree):
+    """Issue #34: sacs and bulbs are passed through and reported (VesselTree.bulges). Each bulge is where
+    VMTK's lumen is wide: its inscribed radius at the peak is at least 1.3 times its median along the same
+    line, or (the intracranial sac, which VMTK's lines pass at its neck) the peak lies within two parent
+    radii of the stretch of VMTK's lines whose inscribed radius exceeds 1.3 times the parent's."""
+    name, V, F, tree, lines = real_tree
+    assert len(tree.bulges) == BULGES.get(name, 0), (name, [(b.paths, b.ratio) for b in tree.bulges])
+    for b in tree.bulges:
+        assert b.ratio >= 1.3 and b.s_range[0] < b.s_peak < b.s_range[1]
+        if "intracranial" in name:
+            trunk = np.median(lines[0][1][:len(lines[0][1]) // 4])
+            sac = np.vstack([P[R > 1.3 * trunk] for P, R in lines])
+            assert np.min(np.linalg.norm(sac - b.peak, axis=1)) < 2 * trunk
+            continue
+        P, R = min(lines, key=lambda pr: cKDTree(pr[0]).query(b.peak)[0])
+        assert R[cKDTree(P).query(b.peak)[1]] >= 1.3 * np.median(R), (name, b.peak)
+
+
+def test_a_rigid_motion_moves_the_tree_with_the_mesh(real_tree):
+    """Invariance: the tree of a rotated and shifted mesh is the tree of the mesh rotated and shifted, within
+    0.05 local radii (the fits of stubs on a junction's flare wandered and moved the arch's junctions 4-6 mm
+    until a fit that does not settle took the centre line, which is invariant)."""
+    name, V, F, tree, lines = real_tree
+    Q = Rotation.from_rotvec([0.3, -0.2, 0.5]).as_matrix()
+    t = np.array([5.0, -3.0, 2.0])
+    moved = vesselgp.fit_vessel_tree(V @ Q.T + t, F)
+    assert len(moved.paths) == len(tree.paths)
+    for p, q in zip(tree.paths, moved.paths):
+        d = cKDTree((q.dense_points - t) @ Q).query(p.dense_points)[0]
+        assert np.max(d / p.radius_at(p.dense_s)) < 0.05, name
+    if len(tree.junctions):
+        assert np.allclose((moved.junctions - t) @ Q, tree.junctions, atol=0.05 * min(e.radius for e in tree.ends))
+
+
+# --------------------------------------------------------------------------- #
+# twist between two scans of a real tree (issue #34, item 6)
+# --------------------------------------------------------------------------- #
+def _twisted(V, ends, lines, alpha):
+    """The real tree twisted by ``alpha(u)`` (u = arc length over length of VMTK's line from the widest end to the
+    second widest, the main vessel): each main-vessel vertex turned by alpha about that line's tangent at its
+    nearest point, each side branch (the vertices nearer to where VMTK's line to its tip has parted from the
+    main line by more than the main line's inscribed radius) turned rigidly about the main tangent at the
+    parting by alpha there. Built from VMTK's lines, not vesselgp's fit. Returns the vertices and the u of
+    each side branch's parting with its point on the main line."""
+    order = np.argsort([-e.radius for e in ends])
+    km = int(np.argmin([np.linalg.norm(P[-1] - ends[order[1]].center) for P, _ in lines]))
+    M, RM = lines[km]
+    aM = chord_length(M)
+    T = np.gradient(M, aM, axis=0)
+    T /= np.linalg.norm(T, axis=1)[:, None]
+    kd = cKDTree(M)
+    parts = []
+    for i, (P, _) in enumerate(lines):
+        if i != km:
+            d, idx = kd.query(P)
+            out = np.flatnonzero(d > RM[idx])
+            if len(out):
+                parts.append((P[out[0]:], int(idx[out[0]])))
+    best, iM = kd.query(V)
+    owner = np.full(len(V), -1)
+    for q, (P, _) in enumerate(parts):
+        d = cKDTree(P).query(V)[0]
+        owner[d < best], best = q, np.minimum(best, d)
+    W = V.copy()
+    m = owner < 0
+    c = M[iM[m]]
+    W[m] = c + Rotation.from_rotvec(T[iM[m]] * alpha(aM[iM[m]] / aM[-1])[:, None]).apply(V[m] - c)
+    for q, (_, j) in enumerate(parts):
+        m = owner == q
+        W[m] = M[j] + Rotation.from_rotvec(T[j] * alpha(aM[j] / aM[-1])).apply(V[m] - M[j])
+    return W, [(aM[j] / aM[-1], M[j]) for _, j in parts]
+
+
+@pytest.mark.parametrize("profile", ["linear 60 deg", "non-uniform -50 deg"])
+def test_twist_between_a_real_tree_and_its_twisted_remeshed_moved_copy(profile):
+    """Issue #34: the abdominal aorta with its renal and iliac branches against a copy twisted by a known
+    alpha(s) about the aorta (side branches turned rigidly at their partings), remeshed independently
+    (pymeshlab's isotropic remeshing) and moved rigidly: each segment between landmarks within 2 degrees of
+    alpha at the later landmark's parting minus alpha at the earlier one's (measured 1.1-1.2 degrees)."""
+    import igl
+    import pymeshlab
+
+    name = "gmsh_abdominal-aorta-renal-iliac_open.stl"
+    V, F = vesselgp.read_mesh(REAL / name)[:2]
+    alpha = {"linear 60 deg": lambda u: np.radians(60.0) * u,
+             "non-uniform -50 deg": lambda u: np.radians(-50.0) * u * u * (3 - 2 * u)}[profile]
+    W, partings = _twisted(V, vesselgp.vessel_ends(V, F), vmtk_lines(name), alpha)
+    E = igl.edges(F)
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(W, F))
+    ms.meshing_isotropic_explicit_remeshing(
+        iterations=4, targetlen=pymeshlab.PureValue(float(np.median(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)))))
+    W2, F2 = ms.current_mesh().vertex_matrix().astype(np.float64), ms.current_mesh().face_matrix().astype(np.int64)
+    assert len(W2) != len(V)  # another mesh of the same surface
+    Q = Rotation.from_rotvec([0.4, -0.3, 0.2]).as_matrix()
+    r = vesselgp.twist_between(V, F, W2 @ Q.T + [10.0, -4.0, 3.0], F2)
+    assert len(r.segment_twist) >= 1
+    u = np.array([min(partings, key=lambda pm: np.linalg.norm(pm[1] - P))[0] for P in r.landmarks_a])
+    truth = np.degrees(np.diff(alpha(u)))
+    assert np.all(np.abs(np.degrees(r.segment_twist) - truth) <= 2.0), (np.degrees(r.segment_twist), truth)

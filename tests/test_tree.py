@@ -479,3 +479,33 @@ def test_junction_is_where_the_branch_lines_meet_held_within_the_zone(off):
         assert np.linalg.norm(J) < 0.05
     else:
         assert np.isclose(np.linalg.norm(J - J0), 0.5) and np.linalg.norm(J) < off
+
+
+#: Anatomy the binary synthetic trees do not show (issue #34): three children off one junction (the arch's
+#: branches, a left main's trifurcation) and two thin children (0.45 of the trunk's radius) leaving it at 85
+#: degrees. README figures: path axis worst / mean (% r), radius worst (%), junction (parent radii).
+README_ANATOMY = {"trifurcation": (dict(parents=(-1, 0, 0, 0), voxel=0.4, taper=0.5, branch_angle_deg=70.0),
+                                   0.039, 0.0018, 0.040, 0.088),
+                  "thin at 85 deg": (dict(parents=(-1, 0, 0), voxel=0.35, taper=0.45, branch_angle_deg=85.0),
+                                     0.059, 0.0026, 0.036, 0.16)}
+
+
+@pytest.mark.parametrize("name", list(README_ANATOMY))
+def test_a_trifurcation_and_thin_branches_at_right_angles(name):
+    """One junction with all its children, every path on the true centre lines (within 1.5x the README's
+    figures, away from junctions and tips), the radius true, the junction where the true centre lines meet."""
+    kw, worst, mean, radius, junction = README_ANATOMY[name]
+    t = synthetic_tree(**kw)
+    tree = fit_vessel_tree(t.V, t.F)
+    assert len(tree.paths) == len(kw["parents"]) - 1 and len(tree.junctions) == 1
+    assert sorted(tree.parent.tolist()) == sorted(kw["parents"])
+    for p in tree.paths:
+        P = p.dense_points
+        d, r, _, _ = t.truth.nearest(P)
+        keep = t.truth.interior_mask(P)
+        err = 100 * d[keep] / r[keep]
+        assert err.max() <= 1.5 * worst and err.mean() <= 1.5 * mean, (p.ends, err.max(), err.mean())
+        assert (100 * np.abs(p.radius_at(p.dense_s)[keep] - r[keep]) / r[keep]).max() <= 1.5 * radius
+    J, R = t.truth.junctions
+    assert np.linalg.norm(tree.junctions[0] - J[0]) <= 1.5 * junction * R[0]
+    assert all(len(z) == 0 for z in tree.medial_zones) and tree.bulges == ()

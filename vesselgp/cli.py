@@ -160,6 +160,16 @@ def _lengths_in(d):
     return "lengths in mm" if d["input_units"] != "mm (assumed)" else "lengths in mesh units, taken as mm"
 
 
+def _bulges_text(bulges, paths=False):
+    """One line per bulge of ``axis.json`` / ``tree.json`` (sacs, bulbs: passed through, said)."""
+    text = ""
+    for b in bulges:
+        on = f" on path{'s' * (len(b['paths']) > 1)} {', '.join(map(str, b['paths']))}" if paths else ""
+        text += (f"\n  bulge{on} at s {b['s_range'][0]:.2f}-{b['s_range'][1]:.2f}: radius {b['peak_radius']:.3g} mm "
+                 f"against {b['neighbour_radius']:.3g} mm beside it ({b['ratio']:.2f}x)")
+    return text
+
+
 def _files_text(out):
     return "\n".join(f"  {f}" for f in out.files)
 
@@ -176,16 +186,19 @@ def cmd_fit(args):
                                                                         *_UNIT_KEYS)},
                    "n_branches": len(d["branches"]), "n_junctions": len(d["junctions"]),
                    "paths": [{k: p[k] for k in ("ends", "length", "mean_radius")} for p in d["paths"]],
-                   "files": out.files}
+                   "bulges": d["bulges"], "files": out.files}
         lines = "\n".join(f"  path {p['ends'][0]} -> {p['ends'][1]}: length {p['length']:.4g} mm, "
                           f"mean radius {p['mean_radius']:.4g} mm" for p in d["paths"])
+        lines += _bulges_text(d["bulges"], paths=True)
         _emit(args, summary, f"fitted tree: {len(d['branches'])} branches, {len(d['junctions'])} junctions, "
                              f"root end {d['root']}, {d['time_s']:.2f} s\n{lines}\n{_files_text(out)}")
         return 0
     summary = {"command": "fit", **{k: d[k] for k in ("length", "mean_radius", "n_nodes", "iterations",
-                                                      "converged", "time_s", *_UNIT_KEYS)}, "files": out.files}
+                                                      "converged", "time_s", "bulges", *_UNIT_KEYS)},
+               "files": out.files}
     _emit(args, summary, f"fitted axis: length {gc.length:.4g} mm, mean radius {gc.mean_radius:.4g} mm, "
-                         f"{len(gc.s)} nodes, {gc.iterations} iterations, {d['time_s']:.2f} s\n{_files_text(out)}")
+                         f"{len(gc.s)} nodes, {gc.iterations} iterations, {d['time_s']:.2f} s"
+                         f"{_bulges_text(d['bulges'])}\n{_files_text(out)}")
     return 0
 
 

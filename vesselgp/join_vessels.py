@@ -10,7 +10,8 @@ Everything a join needs is derived from the two meshes and two end indices
   vessel next to the other end is held (``tolerances.JOIN_HOLD_FRACTION`` of
   the axis by default); a moving tree is fitted with
   :func:`vesselgp.fit_vessel_tree`, its path from the widest other end to the
-  joined end is the axis, and every branch but the joined end's own is held;
+  joined end is the axis, and every branch but the joined end's own is held,
+  as is that branch through its junction zone (its wall there is the parent's flare);
 * the target is the other end's centre, with tangent minus its outward
   direction (the joined vessel continues into the other one);
 * angle 0 is a visible anchor: ``moving_normal`` (a direction across the
@@ -222,9 +223,9 @@ class VesselJoin:
     def _tree_path(self, W, G, ends, j, hold, kept, n_user):
         """A moving tree: the path from the widest other end (the root) to the moving end, and what is held.
 
-        By default everything but the moving end's own branch is held (the free part runs from the
-        last junction to the end); a fraction ``hold`` holds that much of the path next to the root
-        plus every other branch.
+        By default everything but the moving end's own branch is held, and that branch through its
+        junction zone (the free part runs from there to the end); a fraction ``hold`` holds that much
+        of the path next to the root plus every other branch.
         """
         root = max((i for i in range(len(ends)) if i != j), key=lambda i: ends[i].radius)
         self.tree = tree = fit_vessel_tree(W, G, root, ends=ends)
@@ -232,7 +233,20 @@ class VesselJoin:
         gc = tree.paths[k]
         off = ~np.isfinite(gc.vertex_s)
         if hold is None:
-            fixed = np.flatnonzero(tree.vertex_branch != tree.path_branches[k][-1])
+            # held: every other branch, and the moving branch through its junction zone (there the wall
+            # is the parent's flare, as wide as the parent); the free part is the branch's own tube
+            b = tree.path_branches[k][-1]
+            J = tree.junctions[int(np.flatnonzero(tree.junction_branch == tree.parent[b])[0])]
+            sz = (gc.dense_s[int(np.argmin(np.linalg.norm(gc.dense_points - J, axis=1)))]
+                  + tree.junction_zone[b] / gc.length)
+            own = tree.vertex_branch == b
+            fixed = np.flatnonzero(~own | (gc.vertex_s < sz))
+            # the parent's wall wraps past the junction; its vertices project onto the branch's stretch
+            beyond = fixed[~own[fixed] & (gc.vertex_s[fixed] > sz)]
+            if len(beyond):
+                vs = gc.vertex_s.copy()
+                vs[beyond] = np.nan  # held, not on the free part
+                gc = replace(gc, vertex_s=vs)
         else:
             fixed = np.union1d(_held(gc, hold, kept, n_user), np.flatnonzero(off))
         return gc, fixed
@@ -273,7 +287,7 @@ def join_vessels(V, F, end, V_other, F_other, other_end, *, hold=None, method="r
     V : (n, 3) float64
         The vessel that is deformed: a tube with two ends, or a tree (then the
         path from its widest other end to ``end`` is fitted and, by default,
-        everything but the moving end's own branch is held).
+        everything but the moving end's own branch past its junction zone is held).
     F : (m, 3) int64
     end : int
         Index into ``vessel_ends(V, F)`` of the end that moves; the other end is held.

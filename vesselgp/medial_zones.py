@@ -13,7 +13,12 @@ centre and the fit can wander off it, then kink back (``kappa r`` of 2 to 5 on t
 * a bulb, a closed rounded end wider than it is long (the pulmonary trunk's), or a section far
   from round lets it wind within the lumen, turning tighter than its radius (``kappa r >= 1``,
   the tube's sections would overlap: :func:`vesselgp.inside.check_axis_bend`) while staying
-  near the centre line.
+  near the centre line;
+* a stub on its junction's flare, or a branch one or two mesh edges across, has a fixed point
+  that does not settle: still moving more than ``tolerances.TREE_UNSETTLED`` radii an iteration
+  at the iteration cap, its axis is wherever the iteration stopped (a rigid motion of the mesh
+  moved the arch's junctions 4-6 mm). :func:`vesselgp.fit_vessel_tree` takes the centre line
+  for the whole branch then.
 
 :func:`medial_zones` finds the stretches where the fitted axis is farther than
 ``tolerances.TREE_MEDIAL_DEPARTURE`` inscribed radii from the branch's centre line, or turns

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from . import tolerances as tol
+from .bulges import tree_bulges
 from .deform import Frame
 from .errors import MismatchError, VesselError
 from .fit import fit_generalized_cylinder
@@ -334,7 +335,7 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
     t0 = time.perf_counter()
     gc = fit_generalized_cylinder(V, F, ends=ends, n_nodes=n_nodes, mesh_ends=found)
     dt = time.perf_counter() - t0
-    d = {**gc_to_dict(gc), **uinfo}
+    d = {**gc_to_dict(gc), **uinfo, "bulges": bulges_to_dicts(tree_bulges((gc,)))}
     d.update(bbox_diagonal=float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), input=str(mesh), time_s=dt)
     write_json(out("axis.json"), d)
     fr = gc.frames
@@ -363,6 +364,12 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
     return gc, d
 
 
+def bulges_to_dicts(bulges):
+    """JSON-ready list of :class:`vesselgp.bulges.Bulge` (``bulges`` of ``axis.json`` and ``tree.json``)."""
+    return [{"paths": list(b.paths), "s_range": b.s_range, "s_peak": b.s_peak, "peak": b.peak,
+             "peak_radius": b.peak_radius, "neighbour_radius": b.neighbour_radius, "ratio": b.ratio} for b in bulges]
+
+
 def tree_to_dict(tree, units="mm"):
     """JSON-ready description of a :class:`vesselgp.tree.VesselTree` (``tree.json`` of ``vesselgp fit``)."""
     def branch(b, gc):
@@ -382,6 +389,7 @@ def tree_to_dict(tree, units="mm"):
         "paths": [{"ends": list(p.ends), "branches": list(c), "length": p.length, "mean_radius": p.mean_radius,
                    "min_radius": float(p.radii.min()), "max_radius": float(p.radii.max())}
                   for p, c in zip(tree.paths, tree.path_branches)],
+        "bulges": bulges_to_dicts(tree.bulges),
         "converged": all(gc.converged for gc in tree.branches),
         "n_vertices": len(tree.vertex_branch),
     }

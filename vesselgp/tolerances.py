@@ -523,6 +523,11 @@ TREE_FOOT_WINDOW = 4.0
 #: model does not describe the lumen there and the axis is the centre line (vesselgp.medial_zones).
 #: The fit stays within 0.01-0.15 radii of it on tubes (synthetic trees 0.02, real branches 0.1).
 TREE_MEDIAL_DEPARTURE = 0.5
+#: A branch whose Eq. 3 fixed point has not converged and still moves more than this many radii
+#: per iteration (a stub on its junction's flare, a thin branch a few edges around: 0.07-0.5 on
+#: the real arches and coronary tree, where a rigid motion of the mesh then moved a junction 5 mm)
+#: is no fit: its axis is the centre line throughout (a medial zone over the whole branch).
+TREE_UNSETTLED = 0.05
 #: ... over the stretch where it departs, widened by this many radii on either side ...
 TREE_MEDIAL_MARGIN = 1.0
 #: ... and blended back into the fitted axis over this many radii beyond that (a smoothstep).
@@ -561,3 +566,13 @@ BATCH_TIMEOUT_POLL_S = 0.25
 #: come from the heap and are reused (Dask's 64 KiB trim threshold makes every large numpy array
 #: page-fault); a worker keeps at most this much freed memory.
 BATCH_MALLOC_THRESHOLD = 1 << 28
+
+# --- bulges of the lumen (vesselgp.bulges) ---
+#: The neighbouring radius of a path sample is the larger median radius over this many path
+#: median radii before it and after it ...
+TREE_BULGE_REACH = 6.0
+#: ... a bulge is a run of samples at least this many times their neighbouring radius ...
+TREE_BULGE_EDGE = 1.1
+#: ... whose peak is at least this many times it (real sacs and iliac aneurysms 1.33-1.72, tubes,
+#: stenoses and thin noisy tips at most 1.26).
+TREE_BULGE_RATIO = 1.3

@@ -44,6 +44,7 @@ from . import tolerances as tol
 from ._validate import as_mesh
 from .axis import Axis
 from .branches import branch_decomposition, root_end
+from .bulges import tree_bulges
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
 from .fit import (check_cylinder_bend, checked_mesh, cylinder_from_axis,
@@ -103,6 +104,10 @@ class VesselTree:
         by more than half an inscribed radius; a bulb: it turned tighter than its radius) and the
         axis is the centre line instead, not held to the bend check
         (:func:`vesselgp.medial_zones.medial_zones`); empty where the fit holds throughout.
+    bulges : tuple of Bulge
+        Where the lumen along the paths is wider than on both sides of it (a sac, a bulb, an
+        ectasia): each with its paths, its stretch and peak, and its peak and neighbouring radius
+        (:func:`vesselgp.bulges.tree_bulges`). The paths pass through it; none on a tube.
     """
 
     ends: tuple
@@ -116,6 +121,7 @@ class VesselTree:
     vertex_branch: np.ndarray
     junction_zone: np.ndarray
     medial_zones: tuple
+    bulges: tuple
 
     def path_to(self, end):
         """The path from the root to end index ``end``.
@@ -456,7 +462,7 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                           vertex_branch=np.zeros(len(V), np.int64), junction_zone=np.zeros(1),
-                          medial_zones=(np.zeros((0, 2)),))
+                          medial_zones=(np.zeros((0, 2)),), bulges=tree_bulges((gc,)))
     area = voronoi_areas(V, Fg)
     br = branch_decomposition(V, Fg, ends, root, loops=topo.boundary_loops)
     caps, leaf_tip, problems, ids = _branch_problems(V, area, ends, root, br)
@@ -464,11 +470,18 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit")
     raw, medial = [], []
     for b, (idx, it, p) in enumerate(zip(ids, fits, problems)):
-        nodes, zones = medial_zones(it.nodes, br.lines[b], br.line_radius[b], p.rscale, fit_radius=it.radii)
+        if it.converged or it.step <= tol.TREE_UNSETTLED * p.rscale:
+            nodes, zones = medial_zones(it.nodes, br.lines[b], br.line_radius[b], p.rscale)
+        else:  # a fixed point still wandering is no fit (a stub on its junction's flare): the centre line
+            log.info("tree branch %d: its fit still moves %.2g radii per iteration; its axis is the lumen's "
+                     "centre line", b, it.step / p.rscale)
+            nodes = resample_arclength(br.lines[b], len(it.nodes))
+            zones = np.array([[0.0, chord_length(br.lines[b])[-1]]])
         raw.append(_RawBranch(idx=idx, nodes=nodes, s=it.s, it=it, rscale=p.rscale))
         medial.append(br.lines[b][np.searchsorted(chord_length(br.lines[b]), zones)])  # (z, 2, 3) ends
     junctions, junction_branch, nodes, zone = _junctions(raw, br.parent, br.junctions, br.junction_radius, br.lead_in)
-    for b, r in enumerate(raw):  # again through the junction zones, the axes now joined there
+    for b, r in enumerate(raw):  # again through the junction zones, the axes now joined there; the turns
+        # are judged here only, past the child's junction zone (a first fit's free end crosses it)
         line, R = _through_junctions(b, br, junctions, junction_branch)
         fit_radius = np.interp(np.linspace(0.0, 1.0, len(nodes[b])), np.linspace(0.0, 1.0, len(r.it.radii)),
                                r.it.radii)  # the first fit's radii (the junctions moved the ends only)
@@ -486,7 +499,7 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     return VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
                       path_branches=tuple(path_branches), vertex_branch=br.vertex_branch,
-                      junction_zone=zone, medial_zones=medial)
+                      junction_zone=zone, medial_zones=medial, bulges=tree_bulges(paths))
 
 
 def _through_junctions(b, br, junctions, junction_branch):

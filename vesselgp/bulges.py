@@ -1,0 +1,171 @@
+"""Bulges of the lumen along a vessel's paths: sacs, bulbs, ectasias (issue #34).
+
+An aneurysm sac, the carotid bulb or a dilated stretch is passed through by the tree's paths the
+way VMTK's centre line passes through it (:mod:`vesselgp.medial_zones`), and reported here: where
+along a path the fitted radius (Eq. 4) stands well above the lumen's radius on both sides of it.
+
+The neighbouring radius at arc length ``a`` is the larger of the median radius over the
+``reach`` before ``a`` and over the ``reach`` after it (one side only where the path ends within
+it). A median ignores a stretch shorter than half its window, so a stenosis beside a bulge does not
+lower it, and a bulge shorter than ``reach`` (a sac up to three radii each side of its peak with
+the default reach of ``tolerances.TREE_BULGE_REACH`` = 6 radii) does not raise it; the larger side
+makes a taper, or the step from a parent to a thinner child, no bulge (the wider side is as wide).
+A bulge peaks at least ``tolerances.TREE_BULGE_RATIO`` times its neighbouring radius and spans the
+samples around the peak at least ``tolerances.TREE_BULGE_EDGE`` times that radius (1.3: on the real meshes
+the sacs and the iliac aneurysms stand 1.33-1.72 above their neighbours, tubes, stenoses and thin
+noisy tips at most 1.26). The first radius of a path at either end is not judged (a cap's or a
+tip's region).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from . import tolerances as tol
+
+__all__ = ["Bulge", "bulges", "tree_bulges"]
+
+
+@dataclass(frozen=True)
+class Bulge:
+    """A stretch of a vessel where the lumen is wider than on both sides of it.
+
+    Attributes
+    ----------
+    paths : tuple of int
+        The tree's paths through it (indices into :attr:`vesselgp.VesselTree.paths`); ``s_range``
+        and ``s_peak`` are on the first.
+    s_range : (2,) float64
+        Normalised arc length of its start and end on ``paths[0]``.
+    s_peak : float
+        Where it is widest.
+    peak : (3,) float64
+        The axis point there.
+    peak_radius : float
+        The fitted radius there (Eq. 4).
+    neighbour_radius : float
+        The lumen's radius beside it (the module notes).
+    """
+
+    paths: tuple
+    s_range: np.ndarray
+    s_peak: float
+    peak: np.ndarray
+    peak_radius: float
+    neighbour_radius: float
+
+    @property
+    def ratio(self):
+        """Peak radius over the neighbouring radius."""
+        return self.peak_radius / self.neighbour_radius
+
+
+def bulges(s, radius, length, *, reach, margin=(0.0, 0.0)):
+    """Stretches of an axis where the radius stands above its neighbours (see the module notes).
+
+    Parameters
+    ----------
+    s : (q,) float64
+        Normalised arc length of the samples, uniform (a fit's ``dense_s``).
+    radius : (q,) float64
+        The radius at each sample.
+    length : float
+        Arc length of the axis.
+    reach : float
+        Arc length of the window on each side (the neighbouring radius is its median).
+    margin : (float, float), optional
+        Arc length at the start and at the end that is not judged.
+
+    Returns
+    -------
+    (k, 5) float64
+        One row per bulge: normalised start, end and peak arc length, peak radius and the
+        neighbouring radius at the peak.
+
+    Examples
+    --------
+    A tube of radius 1 and length 20 with a fusiform bulge of height 0.6 (a Gaussian of width 1.5
+    at the middle): its neighbouring radius is the median over 6 before the peak, the radius at
+    ``a = 7``, ``1 + 0.6 exp(-4) = 1.011``; it spans ``|a - 10| <= 1.5 sqrt(ln(0.6 / 0.1121)) = 1.94``,
+    where the radius is at least 1.1 times that.
+
+    >>> s = np.linspace(0.0, 1.0, 801)
+    >>> r = 1.0 + 0.6 * np.exp(-((20 * s - 10.0) / 1.5) ** 2)
+    >>> (bulges(s, r, 20.0, reach=6.0) * [20, 20, 20, 1, 1]).round(3).tolist()
+    [[8.075, 11.925, 10.0, 1.6, 1.011]]
+    """
+    s = np.asarray(s, np.float64)
+    r = np.asarray(radius, np.float64)
+    n = len(s)
+    w = max(int(round(reach / (float(length) * (s[1] - s[0])))), 1) if n > 1 else 1
+    pad = np.concatenate([np.full(w, np.nan), r, np.full(w, np.nan)])
+    win = sliding_window_view(pad, w)  # win[j] = pad[j:j + w]
+    with np.errstate(all="ignore"):
+        before = _nanmedian(win[:n])  # r[i - w], ..., r[i - 1]
+        after = _nanmedian(win[w + 1:w + 1 + n])  # r[i + 1], ..., r[i + w]
+    base = np.fmax(before, after)
+    arc = s * float(length)
+    judged = (arc >= margin[0]) & (float(length) - arc >= margin[1]) & np.isfinite(base)
+    q = np.where(judged, r / np.where(judged, base, 1.0), 0.0)
+    out, covered = [], np.zeros(n, bool)
+    for i0, i1 in _runs(q >= tol.TREE_BULGE_RATIO):
+        k = i0 + int(np.argmax(q[i0:i1 + 1]))
+        if covered[k]:  # a second peak within the first's stretch
+            continue
+        wide = r >= tol.TREE_BULGE_EDGE * base[k]  # its stretch: wider than EDGE x the peak's neighbours
+        a = k - int(np.argmin(wide[k::-1])) + 1 if not wide[:k + 1].all() else 0
+        b = k + int(np.argmin(wide[k:])) - 1 if not wide[k:].all() else n - 1
+        covered[a:b + 1] = True
+        out.append([s[a], s[b], s[k], r[k], base[k]])
+    return np.array(out, np.float64).reshape(-1, 5)
+
+
+def _nanmedian(rows):
+    """Median of each row ignoring NaN, NaN for an all-NaN row (no warning)."""
+    srt = np.sort(rows, axis=1)  # NaN last
+    cnt = np.sum(np.isfinite(rows), axis=1)
+    lo = np.maximum((cnt - 1) // 2, 0)
+    hi = np.maximum(cnt // 2, 0)
+    idx = np.arange(len(rows))
+    med = 0.5 * (srt[idx, lo] + srt[idx, hi])
+    return np.where(cnt > 0, med, np.nan)
+
+
+def _runs(mask):
+    """Start and end index (inclusive) of each run of True in ``mask``: (k, 2) int64."""
+    m = np.concatenate([[False], mask, [False]]).astype(np.int8)
+    d = np.diff(m)
+    return np.c_[np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1]
+
+
+def tree_bulges(paths):
+    """The bulges of a tree's paths, one per place (a bulge on a shared trunk is on several paths).
+
+    Parameters
+    ----------
+    paths : sequence of GeneralizedCylinder
+        The root-to-tip paths (or a single vessel's fit); the first and last fitted radius of
+        each are not judged.
+
+    Returns
+    -------
+    tuple of Bulge
+        Two paths' bulges are one when each peak lies within the other's peak radius.
+    """
+    found = []
+    for k, p in enumerate(paths):
+        reach = tol.TREE_BULGE_REACH * float(np.median(p.radius_at(p.dense_s)))
+        r = p.radius_at(p.dense_s)
+        margin = (float(r[0]), float(r[-1]))
+        for s0, s1, sp, rp, rb in bulges(p.dense_s, r, p.length, reach=reach, margin=margin):
+            peak = p.dense_points[np.argmin(np.abs(p.dense_s - sp))]  # sp is one of the dense samples
+            same = next((i for i, b in enumerate(found)
+                         if np.linalg.norm(b.peak - peak) <= min(b.peak_radius, rp)), None)
+            if same is None:
+                found.append(Bulge((k,), np.array([s0, s1]), float(sp), peak, float(rp), float(rb)))
+            else:
+                b = found[same]
+                found[same] = Bulge(b.paths + (k,), b.s_range, b.s_peak, b.peak, b.peak_radius, b.neighbour_radius)
+    return tuple(found)
