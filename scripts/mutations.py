@@ -477,6 +477,12 @@ MUTATIONS = {
         "    med = srt[idx, 0]",
         ["tests/test_bulges.py"],
     ),
+    "join_tree_measured_along_the_whole_path": (
+        "vesselgp/join_vessels.py",
+        "            gc = _cropped(gc, max(sz - tol.JOIN_TREE_LEAD * tree.branches[b].mean_radius / gc.length, 0.0))",
+        "            gc = _cropped(gc, 0.0)",
+        ["tests/test_join_vessels.py"],
+    ),
     "tree_unsettled_fit_kept": (
         "vesselgp/tree.py",
         "        if it.converged or it.step <= tol.TREE_UNSETTLED * p.rscale:",

@@ -285,6 +285,9 @@ JOIN_FTOL_REL = 1e-10
 JOIN_GRID_POINTS = 12
 #: Maximum NLopt energy evaluations (after the probes).
 JOIN_MAX_EVALS = 40
+#: A moving tree's join is measured (Eq. 6-8) from this many of the moving branch's radii before its
+#: free part on: the held wall there anchors alpha at 0; the path upstream is not part of the join.
+JOIN_TREE_LEAD = 2.0
 #: Default held length of :func:`vesselgp.join_vessels`: this fraction of the moving vessel's axis,
 #: next to its other end, stays in place.
 JOIN_HOLD_FRACTION = 0.1
