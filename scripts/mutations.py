@@ -495,6 +495,52 @@ MUTATIONS = {
         "            fixed = np.flatnonzero(~own)",
         ["tests/test_join_vessels.py"],
     ),
+    # issue #35's audit: bugs that passed the whole suite before, each with the test that now catches it
+    "batch_key_ignores_units": (
+        "vesselgp/batch.py",
+        """    parts = [row["kind"] or f"invalid {row['row']}: {row['error']}", row["ends"] or "", row["units"] or "",""",
+        """    parts = [row["kind"] or f"invalid {row['row']}: {row['error']}", row["ends"] or "", "",""",
+        ["tests/test_batch.py::test_every_option_that_changes_a_result_changes_the_key"],
+    ),
+    "batch_malformed_row_ok": (
+        "vesselgp/batch.py",
+        """        if row["error"]:
+            raise VesselError(row["error"])""",
+        """        if row["error"]:
+            rec.update(status="ok", error_type="", error="", metrics={}, detail={})
+            return to_json(rec)""",
+        ["tests/test_batch.py::test_malformed_rows_fail_in_their_row"],
+    ),
+    "batch_tree_radius_unweighted": (
+        "vesselgp/batch.py",
+        """"mean_radius": float(lengths @ radii / lengths.sum()),""",
+        """"mean_radius": float(radii.mean()),""",
+        ["tests/test_batch.py::test_a_tree_row_against_its_branches_and_the_true_centre_lines"],
+    ),
+    "batch_twist_rate_on_scan_b": (
+        "vesselgp/batch.py",
+        """np.degrees(r.total_twist) / (r.s_a[-1] - r.s_a[0]) * 10.0)""",
+        """np.degrees(r.total_twist) / (r.s_b[-1] - r.s_b[0]) * 10.0)""",
+        ["tests/test_batch.py::test_torsion_and_twist_rows_and_a_bad_option"],
+    ),
+    "join_default_target_normal_inverse_rotation": (
+        "vesselgp/join_vessels.py",
+        "        tn = (minimal_rotation(e_move.direction, tangent).apply(np.asarray(mn, float)) if target_normal is None",
+        "        tn = (minimal_rotation(e_move.direction, tangent).inv().apply(np.asarray(mn, float)) if target_normal is None",
+        ["tests/test_join_vessels.py::test_default_target_normal_on_an_oblique_bend"],
+    ),
+    "tree_mirror_only_at_open_ends": (
+        "vesselgp/tree.py",
+        'mirror=tuple(e is not None and e.kind != "rounded" for e in (start, end)))',
+        'mirror=tuple(e is not None and e.kind == "open" for e in (start, end)))',
+        ["tests/test_tree.py::test_a_tree_with_capped_tips_keeps_its_accuracy"],
+    ),
+    "inside_ends_margin_tripled": (
+        "vesselgp/inside.py",
+        "    margin = float(np.mean(radii)) if ends_margin is None else float(ends_margin)\n    keep = (s * length >= margin)",
+        "    margin = 3.0 * float(np.mean(radii)) if ends_margin is None else float(ends_margin)\n    keep = (s * length >= margin)",
+        ["tests/test_inside.py::test_the_ends_margin_at_its_edge"],
+    ),
     "tree_junction_held_a_whole_radius": (
         "vesselgp/tree.py",
         "    off, hold = np.linalg.norm(J - J0), tol.TREE_JUNCTION_HOLD * R0",

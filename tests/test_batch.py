@@ -135,6 +135,11 @@ def test_torsion_and_twist_rows_and_a_bad_option(cohort, client, tmp_path):
     r = vg.twist_between(Va, Fa, Vb, Fb)
     assert tw["status"] == "ok" and tw["total_twist_deg"] == pytest.approx(np.degrees(r.total_twist), rel=1e-9)
     assert tw["n_landmarks"] == 3
+    # the rate against the pair's truth: the imposed total twist over scan A's landmark span, per cm (scan B is
+    # 13 % shorter: a rate on its length would be 15 % high)
+    p = twist_pair(3, twist_deg=40.0, voxel=(0.6, 0.6), side_radius=1.8)
+    want = np.degrees(p.total_twist) / (p.s_a[-1] - p.s_a[0]) * 10.0
+    assert tw["mean_twist_per_length_deg_per_cm"] == pytest.approx(want, rel=0.05)
     assert bad["status"] == "error" and bad["error_type"] == "VesselError" and "ends" in bad["error"]
 
 
@@ -260,3 +265,64 @@ def test_a_result_lost_with_its_worker_is_waited_for_not_failed(monkeypatch):
     fut = _LostThenFinished(["lost", "pending", "finished"], rec)
     batch._on_dask(_FakeClient(fut), [row], lambda r, x: saved.append(x), None, None)
     assert saved == [rec]
+
+
+def test_every_option_that_changes_a_result_changes_the_key(monkeypatch, tmp_path):
+    """The resume key of one row changes with its units, ends, kind and vesselgp's version, and a re-run with
+    the units changed from mm to cm computes the row again: its length is 10 times the mm one, never the stale
+    mm result (issue #35)."""
+    d = tmp_path / "k"
+    d.mkdir()
+    v = synthetic_vessel("arc", n_around=16)
+    vg.write_mesh(d / "a.ply", v.V, v.F)
+    base = {"row": 0, "kind": "mesh", "ends": None, "units": None, "inputs": [str(d / "a.ply")], "error": None}
+    keys = {batch.row_key(base)}
+    for change in ({"units": "cm"}, {"ends": "0 1"}, {"kind": "torsion"}):
+        keys.add(batch.row_key({**base, **change}))
+    monkeypatch.setattr(batch, "__version__", "0.0.0-other")
+    keys.add(batch.row_key(base))
+    assert len(keys) == 5
+    monkeypatch.undo()
+    (d / "m.csv").write_text("mesh,units\na.ply,mm\n")
+    r1 = batch.run(d / "m.csv", d / "out", workers=0)
+    (d / "m.csv").write_text("mesh,units\na.ply,cm\n")
+    r2 = batch.run(d / "m.csv", d / "out", workers=0)
+    assert r2.computed == 1 and r2.rows[0]["key"] != r1.rows[0]["key"]
+    assert r2.rows[0]["length"] == pytest.approx(10.0 * r1.rows[0]["length"], rel=1e-9)
+
+
+def test_malformed_rows_fail_in_their_row(tmp_path):
+    """A row naming no input, and a row filling two kinds, are errors in their own rows with a message saying
+    what is wrong; the good row beside them is ok (issue #35: they must never become empty ok rows)."""
+    d = tmp_path / "bad"
+    d.mkdir()
+    v = synthetic_vessel("arc", n_around=16)
+    vg.write_mesh(d / "a.ply", v.V, v.F)
+    (d / "m.csv").write_text("mesh,rest,deformed\na.ply,,\n,,\na.ply,a.ply,a.ply\n")
+    rows = batch.run(d / "m.csv", d / "out", workers=0).rows
+    assert [r["status"] for r in rows] == ["ok", "error", "error"]
+    assert "names no input" in rows[1]["error"] and "one kind per row" in rows[2]["error"]
+    assert rows[0]["length"] > 0
+
+
+def test_a_tree_row_against_its_branches_and_the_true_centre_lines(tmp_path):
+    """A tree row (issue #35): its length is the sum of the branches' (and the true centre lines' within 2 %),
+    its mean radius the length-weighted mean of the branches' (by hand), its paths one per tip, its radius range
+    the paths' extremes."""
+    from vesselgp.synthetic import synthetic_tree
+
+    t = synthetic_tree(levels=1, voxel=0.6)
+    vg.write_mesh(tmp_path / "y.ply", t.V, t.F)
+    (tmp_path / "m.csv").write_text("mesh\ny.ply\n")
+    (row,) = batch.run(tmp_path / "m.csv", tmp_path / "out", workers=0).rows
+    tree = vg.fit_vessel_tree(t.V, t.F)
+    L = np.array([b.length for b in tree.branches])
+    R = np.array([b.mean_radius for b in tree.branches])
+    assert row["status"] == "ok" and row["n_paths"] == 2 and row["n_ends"] == 3
+    assert row["length"] == pytest.approx(L.sum(), rel=1e-9)
+    assert row["mean_radius"] == pytest.approx((L * R).sum() / L.sum(), rel=1e-9)
+    assert row["mean_radius"] != pytest.approx(R.mean(), rel=1e-3)  # the weights matter on this tree
+    true_length = sum(float(b.length) for b in t.truth.branches)
+    assert row["length"] == pytest.approx(true_length, rel=0.02)
+    assert row["min_radius"] == pytest.approx(min(float(p.radii.min()) for p in tree.paths), rel=1e-9)
+    assert row["max_radius"] == pytest.approx(max(float(p.radii.max()) for p in tree.paths), rel=1e-9)

@@ -43,6 +43,25 @@ def test_axis_grazing_the_wall_raises(tube):
         check_axis_inside(tube.V, tube.F, s, P, r)
 
 
+@pytest.mark.parametrize("leaves_at, refused", [(0.8, False), (1.2, True)])
+def test_the_ends_margin_at_its_edge(tube, leaves_at, refused):
+    """Issue #35: the axis is not checked within one mean radius (1.5) of either end. An axis that runs out
+    through the wall (three radii off the centre line) over its last 0.8 radii passes; over its last 1.2 radii it
+    leaves the surface inside the checked part and is refused (a margin tripled would accept it)."""
+    t = tube.truth
+    s = np.linspace(0, 1, 2001)
+    pts, fr = t.axis_at(s)
+    arc = s * t.length
+    out = t.length - arc < leaves_at * 1.5
+    P = pts + np.where(out, 3.0 * 1.5, 0.0)[:, None] * fr[:, 1]
+    r = np.full(len(s), 1.5)
+    if refused:
+        with pytest.raises(vesselgp.NotTubularError, match="leaves the surface"):
+            check_axis_inside(tube.V, tube.F, s, P, r)
+    else:
+        check_axis_inside(tube.V, tube.F, s, P, r)
+
+
 def test_one_winding_checks_several_axes_and_refuses_another_mesh(tube):
     """A SurfaceWinding built once checks the true axis (inside) and an offset one (outside) as the
     one-off check does; a winding of another mesh is refused."""

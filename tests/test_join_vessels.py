@@ -476,3 +476,32 @@ def test_a_cropped_cylinder_is_the_same_axis_reparameterised():
     on = gc.vertex_s >= s0
     assert np.allclose(c.vertex_s[on], (gc.vertex_s[on] - s0) / (1.0 - s0)) and np.isnan(c.vertex_s[~on]).all()
     assert np.array_equal(c.vertex_theta[on], gc.vertex_theta[on]) and not c.vertex_weight[~on].any()
+
+
+def test_default_target_normal_on_an_oblique_bend(coronary):
+    """Issue #35: the documented default target normal is the moving anchor turned by the least rotation from
+    the moving end's direction onto the target tangent. Checked against that definition computed apart (Rodrigues: the axis the two
+    directions' cross product, the angle between them) on an oblique
+    bend: the target tangent out of the end's own plane of bending, 35 degrees off with a 20 degree tilt."""
+    V, F, ends, L = coronary
+    Vo, Fo = vg.read_mesh(CAPPED)[:2]
+    eo = vg.vessel_ends(Vo, Fo)
+    d = _unit(ends[1].direction)
+    a = _unit(np.cross(d, [0.3, 1.0, 0.2]))
+    b = np.cross(d, a)
+    t = _unit(np.cos(np.radians(35.0)) * d + np.sin(np.radians(35.0)) * (np.cos(np.radians(20.0)) * a
+                                                                          + np.sin(np.radians(20.0)) * b))
+    origin = ends[1].center + 0.15 * L * _unit(d + 0.3 * a)
+    join = vg.VesselJoin(V, F, 1, place_other(Vo, eo[1], origin, t, np.radians(25.0)), Fo, 1)
+    p = join.problem
+    u = _unit(join.ends[join.end].direction)
+    e = np.eye(3)[int(np.argmin(np.abs(u)))]  # the default moving anchor, by its definition
+    mn = _unit(e - (e @ u) * u)
+    axis = np.cross(u, p.target.tangent)  # the least rotation from u onto the tangent (Rodrigues, by hand)
+    R = Rotation.from_rotvec(_unit(axis) * np.arctan2(np.linalg.norm(axis), u @ p.target.tangent))
+    want = R.apply(mn)
+    want = _unit(want - (want @ p.target.tangent) * p.target.tangent)
+    assert np.allclose(p.target.normal, want, atol=1e-9)
+    # and not the image under the inverse rotation, which differs by tens of degrees here
+    other = _unit(R.inv().apply(mn) - (R.inv().apply(mn) @ p.target.tangent) * p.target.tangent)
+    assert np.degrees(np.arccos(np.clip(other @ want, -1, 1))) > 5.0

@@ -509,3 +509,28 @@ def test_a_trifurcation_and_thin_branches_at_right_angles(name):
     J, R = t.truth.junctions
     assert np.linalg.norm(tree.junctions[0] - J[0]) <= 1.5 * junction * R[0]
     assert all(len(z) == 0 for z in tree.medial_zones) and tree.bulges == ()
+
+
+#: README: the 4-tip tree with two tips cut off and capped flat (0.3 and 1.2 radii behind the dome): path axis
+#: worst / mean (% r), measured on all four paths.
+README_CAPPED_TIPS = (0.040, 0.0023)
+
+
+def test_a_tree_with_capped_tips_keeps_its_accuracy():
+    """Issue #35: capped tips in the accuracy tests. A capped end mirrors its wall across the cap's plane (a
+    ghost node past it), as an open end does; without that the capped path's worst error triples."""
+    from test_ends_trees import clip_and_cap
+
+    t = synthetic_tree(levels=2, target_vertices=27000)
+    V, F = t.V, t.F
+    for i, e in enumerate(t.truth.ends[1:3]):
+        V, F, _ = clip_and_cap(V, F, e.center, e.direction, e.radius, behind=0.3 + 0.9 * i)
+    tree = fit_vessel_tree(V, F)
+    assert sorted(e.kind for e in tree.ends) == ["cap", "cap", "open", "rounded", "rounded"]
+    worst, mean = README_CAPPED_TIPS
+    for p in tree.paths:
+        P = p.dense_points
+        d, r, _, _ = t.truth.nearest(P)
+        keep = t.truth.interior_mask(P)
+        err = 100 * d[keep] / r[keep]
+        assert err.max() <= 1.5 * worst and err.mean() <= 1.5 * mean, (tree.ends[p.ends[1]].kind, err.max())
