@@ -541,6 +541,24 @@ MUTATIONS = {
         "    margin = 3.0 * float(np.mean(radii)) if ends_margin is None else float(ends_margin)\n    keep = (s * length >= margin)",
         ["tests/test_inside.py::test_the_ends_margin_at_its_edge"],
     ),
+    "rounded_end_keeps_its_ring_radius": (
+        "vesselgp/mesh/ends.py",
+        '    found = [replace(e, radius=float(t["radius"])) for e, t in zip(found, tips)]\n',
+        '',
+        ["tests/test_ends_trees.py::test_capsule_two_rounded_ends"],
+    ),
+    "tree_junction_line_one_node_early": (
+        "vesselgp/tree.py",
+        "    a0 = min(tol.TREE_JUNCTION_SKIP * rscale, 0.25 * arc[-1])",
+        "    a0 = min(tol.TREE_JUNCTION_SKIP * rscale + arc[1], 0.25 * arc[-1])",
+        ["tests/test_tree.py"],
+    ),
+    "join_bend_refusal_loosened": (
+        "vesselgp/join_vessels.py",
+        "    if kr > tol.JOIN_MAX_BEND:",
+        "    if kr > 3.0 * tol.JOIN_MAX_BEND:",
+        ["tests/test_join_vessels.py::test_the_join_bend_guard_at_its_edge"],
+    ),
     "tree_junction_held_a_whole_radius": (
         "vesselgp/tree.py",
         "    off, hold = np.linalg.norm(J - J0), tol.TREE_JUNCTION_HOLD * R0",

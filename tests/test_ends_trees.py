@@ -413,7 +413,9 @@ def test_staircase_terraces_are_not_caps_even_unchecked(stair, monkeypatch):
 def test_capsule_two_rounded_ends(R, L, n, m):
     V, F = capsule(R, L, n, m)
     truth = [("rounded", np.zeros(3), R, np.r_[0, 0, -1.0]), ("rounded", np.r_[0, 0, L], R, np.r_[0, 0, 1.0])]
-    assert_ends_match(vessel_ends(V, F), truth)
+    found = assert_ends_match(vessel_ends(V, F), truth)
+    # the tube's radius behind the dome, not the ring's at the equator: 0-0.29 % off (the ring's, 0.9-2 %)
+    assert all(abs(e.radius - R) <= 0.0045 * R for e in found), [e.radius for e in found]
 
 
 @pytest.mark.parametrize("noise", [0.01, 0.02])
