@@ -39,14 +39,14 @@ MUTATIONS = {
     ),
     "tree_branch_bend_unchecked": (
         "vesselgp/tree.py",
-        "        check_cylinder_bend(b, winding.scale, skip_start=z)",
+        "        check_cylinder_bend(b, winding.scale, skip_start=z, skip=m)",
         "        pass",
         ["tests/test_tree.py"],
     ),
     "tree_junction_zone_bend_checked": (
         "vesselgp/tree.py",
-        "        check_cylinder_bend(b, winding.scale, skip_start=z)",
-        "        check_cylinder_bend(b, winding.scale)",
+        "        check_cylinder_bend(b, winding.scale, skip_start=z, skip=m)",
+        "        check_cylinder_bend(b, winding.scale, skip=m)",
         ["tests/test_real_trees.py"],
     ),
     "bend_skip_ignored": (

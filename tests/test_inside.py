@@ -43,6 +43,19 @@ def test_axis_grazing_the_wall_raises(tube):
         check_axis_inside(tube.V, tube.F, s, P, r)
 
 
+@pytest.mark.parametrize("clear, refused", [(0.25, False), (0.15, True)])
+def test_the_wall_clearance_at_its_edge(tube, clear, refused):
+    """Issue #35: an axis inside the lumen must keep 0.2 local radii from the wall. The centre line moved towards
+    the wall to leave 0.25 radii passes, to leave 0.15 is refused (the 24-gon's wall is at most 0.9 % of a radius
+    nearer than the circle's)."""
+    s, P, r = _axis(tube, 1.5 * (1.0 - clear))
+    if refused:
+        with pytest.raises(vesselgp.NotTubularError, match="radii of the wall"):
+            check_axis_inside(tube.V, tube.F, s, P, r)
+    else:
+        check_axis_inside(tube.V, tube.F, s, P, r)
+
+
 @pytest.mark.parametrize("leaves_at, refused", [(0.8, False), (1.2, True)])
 def test_the_ends_margin_at_its_edge(tube, leaves_at, refused):
     """Issue #35: the axis is not checked within one mean radius (1.5) of either end. An axis that runs out

@@ -20,6 +20,12 @@ from vesselgp.synthetic import synthetic_vessel, twist_pair
 
 SEG_TOL_DEG = 2.0  # the target, per segment and for the total
 
+#: README: worst segment error and total error (degrees) of each pair, asserted within 1.5x (totals under
+#: 0.1 degree within 0.1: a rounding's worth)
+README_TWIST = {"4 branches, 60 deg, 13 % shorter": (1.23, 0.52), "3 branches, -80 deg, 10 % shorter": (1.18, 0.81),
+                "5 branches, 120 deg, 15 % shorter": (0.49, -0.07), "4 branches, non-uniform twist": (0.47, -0.02),
+                "6 branches, gentle vs strong bends": (0.84, -0.48)}
+
 PAIRS = {
     "3 branches, -80 deg, 10 % shorter": dict(n_branches=3, twist_deg=-80.0, stretch=0.9, seed=5),
     "5 branches, 120 deg, 15 % shorter": dict(n_branches=5, twist_deg=120.0, stretch=0.85, seed=6, length=140.0),
@@ -43,14 +49,15 @@ def pairs():
     return get
 
 
-@pytest.mark.parametrize("name", list(PAIRS))
+@pytest.mark.parametrize("name", list(README_TWIST))
 def test_segment_twists_match_the_imposed_twist(pairs, name):
     p, r = pairs(name)
     k = len(p.s_a)
     assert len(r.s_a) == k and len(r.unmatched_a) == 0 and len(r.unmatched_b) == 0  # every landmark matched
     err = np.degrees(r.segment_twist - p.segment_twist)
-    assert np.all(np.abs(err) <= SEG_TOL_DEG), err
-    assert abs(np.degrees(r.total_twist - p.total_twist)) <= SEG_TOL_DEG
+    seg, total = README_TWIST[name]
+    assert np.all(np.abs(err) <= min(1.5 * seg, SEG_TOL_DEG)), err
+    assert abs(np.degrees(r.total_twist - p.total_twist)) <= min(max(1.5 * abs(total), 0.1), SEG_TOL_DEG)
     # landmarks where the true junctions are, arc lengths and stretch as built
     assert np.all(np.abs(r.s_a - p.s_a) < 0.5 * 3.0)
     assert np.allclose(r.stretch, p.stretch, atol=0.04)
