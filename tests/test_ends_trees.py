@@ -639,3 +639,18 @@ def test_persistent_maxima_are_the_textbook_persistence_pairs(seed):
     got = persistent_maxima(G, E, D, used)
     assert dict(got) == truth
     assert got == sorted(got, key=lambda t: (-t[1], t[0]))
+
+
+@pytest.mark.parametrize("delta, kind", [(0.18, "cap"), (0.22, "rounded")])
+def test_the_cap_flatness_at_its_edge(delta, kind):
+    """Issue #35: a cap is a patch whose face normals are all within CAP_FLATNESS (0.2 rad) of their mean. A tube
+    closed by a shallow cone whose faces lean delta from the cap's plane (its normals delta from the axis): 0.18 is
+    a flat cap, its centre on the rim's plane and its radius the tube's; 0.22 is not (the cone is a rounded end)."""
+    assert (delta < tol.CAP_FLATNESS) == (kind == "cap")
+    z = np.linspace(0.0, 6.0, 25)
+    V, F = revolve(np.ones(25), z, 32, bottom=0.0, top=6.0 + np.tan(delta))
+    ends = vessel_ends(V, F)
+    top = max(ends, key=lambda e: e.center[2])
+    assert [e.kind for e in ends if e is not top] == ["cap"] and top.kind == kind
+    if kind == "cap":
+        assert abs(top.radius - 1.0) < 0.01 and abs(top.center[2] - 6.0) < np.tan(delta)
