@@ -349,3 +349,21 @@ def test_a_capped_helix_row_against_the_helix(tmp_path):
     assert row["min_radius"] == pytest.approx(1.5, rel=0.02) and row["max_radius"] == pytest.approx(1.5, rel=0.02)
     assert row["curvature_mean"] == pytest.approx(a / (a * a + c * c), rel=0.05)  # measured 3.7 % low
     assert row["frenet_torsion_abs_mean"] == pytest.approx(c / (a * a + c * c), rel=0.05)
+
+
+def test_a_torsion_row_against_the_imposed_twist(tmp_path):
+    """Issue #35: every column of a torsion row against the truth: a straight vessel 30 long bent into an arc and
+    twisted uniformly by 40 degrees: total twist 40 degrees, Eq. 8 energy Phi^2 (Phi in radians, s normalised),
+    alpha' = Phi everywhere (the largest |d alpha / ds| 40 degrees), 30 long, 40 / 3 degrees per cm."""
+    phi = np.radians(40.0)
+    v = synthetic_vessel(named_curve("straight", length=30.0), radius=1.5, n_around=24)
+    vg.write_mesh(tmp_path / "rest.ply", v.V, v.F)
+    vg.write_mesh(tmp_path / "def.ply", deform_synthetic(v, named_curve("arc"), twist=phi), v.F)
+    (tmp_path / "m.csv").write_text("rest,deformed\nrest.ply,def.ply\n")
+    (row,) = batch.run(tmp_path / "m.csv", tmp_path / "out", workers=0).rows
+    assert row["status"] == "ok" and row["n_vertices"] == len(v.V)
+    assert abs(abs(row["total_twist_deg"]) - 40.0) <= 0.5
+    assert row["energy"] == pytest.approx(phi**2, rel=0.02)
+    assert row["max_abs_dalpha_deg"] == pytest.approx(40.0, rel=0.1)
+    assert row["length"] == pytest.approx(30.0, rel=0.01)
+    assert abs(row["twist_per_length_deg_per_cm"]) == pytest.approx(40.0 / 3.0, rel=0.02)
