@@ -565,6 +565,12 @@ MUTATIONS = {
         '    bent = (np.einsum("ij,ij->i", N, mhat[lab]) < np.cos(1.5 * tol.CAP_FLATNESS)) & (A > 0)',
         ["tests/test_ends_trees.py::test_the_cap_flatness_at_its_edge"],
     ),
+    "tip_refused_when_not_a_hemisphere": (
+        "vesselgp/mesh/_ends_tips.py",
+        "    if abs(Rs - R) > tol.ENDS_TIP_RADIUS_TOL * R:\n        # a dome flatter",
+        "    if abs(Rs - R) > tol.ENDS_TIP_RADIUS_TOL * R:\n        return None\n        # a dome flatter",
+        ["tests/test_ends_trees.py"],
+    ),
     "tree_junction_held_a_whole_radius": (
         "vesselgp/tree.py",
         "    off, hold = np.linalg.norm(J - J0), tol.TREE_JUNCTION_HOLD * R0",

@@ -654,3 +654,43 @@ def test_the_cap_flatness_at_its_edge(delta, kind):
     assert [e.kind for e in ends if e is not top] == ["cap"] and top.kind == kind
     if kind == "cap":
         assert abs(top.radius - 1.0) < 0.01 and abs(top.center[2] - 6.0) < np.tan(delta)
+
+
+def _reshaped_tip(V, e, k):
+    """The tip ``e`` of a synthetic tree stretched along its direction (its dome ``k`` radii tall instead of 1);
+    its end's centre, a radius in from the new tip, moves by (k - 1) radii."""
+    d = e.direction / np.linalg.norm(e.direction)
+    x = (V - e.center) @ d
+    m = (x > 0) & (np.linalg.norm(V - e.center, axis=1) < 1.5 * e.radius + x)
+    V = V.copy()
+    V[m] += np.outer((k - 1.0) * x[m], d)
+    return V, e.center + (k - 1.0) * e.radius * d
+
+
+def test_a_pointed_tip_in_a_tree_is_found(tree4, caplog):
+    """Issue #34: every end of a tree, rounded ends of other shapes than a hemisphere included. One tip of the
+    4-tip tree drawn out into a dome 2.8 radii tall (its best-fit sphere's radius is not the tube's, which
+    refused it as a tip, and a tree has no fallback): all five ends, the drawn-out one centred a radius in from
+    its tip."""
+    e = tree4.truth.ends[2]
+    V, c = _reshaped_tip(tree4.V, e, 2.8)
+    truth = tree_truth(tree4)
+    truth[2] = ("rounded", c, e.radius, e.direction)
+    assert_ends_match(vessel_ends(V, tree4.F), truth)
+    assert "extreme" not in caplog.text
+
+
+@pytest.mark.parametrize("height", [0.3, 2.5])
+def test_flat_and_pointed_domes_are_tips(height, caplog):
+    """A closed tube (radius 1) with a hemisphere at one end and at the other a half-spheroid ``height`` radii
+    tall: both are rounded ends found by the tip test (no fallback to the surface's extremes), the spheroid's
+    centre a radius in from its tip, its radius the tube's."""
+    phi = np.linspace(0, np.pi / 2, 17)[1:]
+    zc = np.linspace(0.0, 6.0, 65)[1:-1]
+    rho = np.r_[np.sin(phi), np.ones(len(zc)), np.sin(phi[::-1])]
+    z = np.r_[-height * np.cos(phi), zc, 6.0 + np.cos(phi[::-1])]
+    V, F = revolve(rho, z, 48, bottom=-height, top=7.0)
+    truth = [("rounded", np.r_[0, 0, 1.0 - height], 1.0, np.r_[0, 0, -1.0]),
+             ("rounded", np.r_[0, 0, 6.0], 1.0, np.r_[0, 0, 1.0])]
+    assert_ends_match(vessel_ends(V, F), truth)
+    assert "extreme" not in caplog.text

@@ -430,9 +430,10 @@ ENDS_TIP_LINE_TOL = 0.25
 ENDS_TIP_RADIUS_TOL = 0.25
 #: ... and rings round: standard deviation of the distance to their centroid below this fraction.
 ENDS_TIP_ROUND_TOL = 0.25
-#: Rounded tips: the dome (within ENDS_TIP_DOME_TO of the equator's distance) fits a sphere
-#: of radius R within ENDS_TIP_RADIUS_TOL (how closely is not asked: a real dome is lobed, flat
-#: on top or oblique, like the pulmonary trunk's at its valve, 0.16 R rms from its sphere) ...
+#: Rounded tips: a dome (within ENDS_TIP_DOME_TO of the equator's distance) whose best-fit sphere
+#: has radius R within ENDS_TIP_RADIUS_TOL is a hemisphere, centred at the sphere's centre; other
+#: domes (flat, pointed, lobed, oblique: the pulmonary trunk's at its valve is 0.16 R rms from its
+#: sphere) are centred a radius in from the tip ...
 #: ... the tube's face normals are all across one axis (smallest over middle eigenvalue of
 #: their area-weighted scatter below this) ...
 ENDS_TIP_AXIS_SPREAD = 0.3

@@ -31,19 +31,20 @@ geodesic rings close in to a point like those of a hemisphere.
      are round and of radius ``R``, and the dome's rings follow
      ``R sin(d / R)`` (``ENDS_TIP_SPEED_TOL``, ``ENDS_TIP_LINE_TOL``,
      ``ENDS_TIP_RADIUS_TOL``, ``ENDS_TIP_ROUND_TOL``),
-   * the dome's best-fit sphere has radius ``R`` (``ENDS_TIP_RADIUS_TOL``;
-     only its radius is asked, not how closely it fits: a real dome is
-     lobed, flat on top or oblique, and its rings already follow
-     ``R sin(d / R)``), the tube's face normals are all across one axis (``ENDS_TIP_AXIS_SPREAD``)
+   * the tube's face normals are all across one axis (``ENDS_TIP_AXIS_SPREAD``)
      and the candidate lies on that axis seen from the sphere's centre
      (``ENDS_TIP_AXIS_DEG``).
 
    A point on the wall of a tube (its rings wrap round the tube and split in
    two, their centroid stays put), a sphere (rings shrink past the equator)
    or a junction (rings split into branches) fail; the checks overlap, so
-   one of them failing on a noisy tip is not enough to miss a clean one. The
-   end's centre is the sphere's centre, its radius ``R`` (the tube's) and
-   its direction the tube's axis. The candidate (a maximum of ``D``) lies off
+   one of them failing on a noisy tip is not enough to miss a clean one.
+   The end's radius is ``R`` (the tube's) and its direction the tube's axis.
+   Its centre is the centre of the dome's best-fit sphere when that sphere's
+   radius is the tube's (``ENDS_TIP_RADIUS_TOL``: a hemisphere); a dome
+   flatter or more pointed than that (0.3 to 2.8 radii tall; a real one may
+   also be lobed or oblique: how closely it fits its sphere is not asked) is
+   a tip all the same, centred a radius in from its tip on the rings' axis. The candidate (a maximum of ``D``) lies off
    the pole of a side branch that leaves its vessel at a wide angle, and its
    rings are then oblique on the tube: when only the tube or pole checks fail,
    the test is repeated once from the vertex where the rings' axis leaves the
@@ -336,13 +337,20 @@ def _hemisphere(V, faces, p, g, h, L):
     band = (g >= dstar) & (g <= far)
     walls = band[F[:, 0]] & band[F[:, 1]] & band[F[:, 2]]  # (no (m, 3) gather and row reduction)
     axis, flatness = _cylinder_axis(N[walls], A[walls])
+    if abs(Rs - R) > tol.ENDS_TIP_RADIUS_TOL * R:
+        # a dome flatter or more pointed than a hemisphere (its sphere's radius is not the tube's, and
+        # nor is its centre where the tube ends): the centre is a radius in from the tip on the rings' axis
+        c0 = fit[0]
+        if axis @ (V[p] - c0) < 0:
+            axis = -axis
+        center = c0 + ((V[p] - c0) @ axis - R) * axis
     if axis @ (V[p] - center) < 0:
         axis = -axis
     u = V[p] - center
     lu = float(np.linalg.norm(u))
     log.debug("tip candidate %d: R %.4g, sphere %.4g (rms %.2g R), axis flatness %.2g, pole %.1f deg",
               p, R, Rs, rms / R, flatness, np.degrees(np.arccos(np.clip(u @ axis / max(lu, 1e-300), -1, 1))))
-    if abs(Rs - R) > tol.ENDS_TIP_RADIUS_TOL * R or flatness > tol.ENDS_TIP_AXIS_SPREAD:
+    if flatness > tol.ENDS_TIP_AXIS_SPREAD:
         return None  # not a dome on a tube
     if u @ axis < np.cos(np.radians(tol.ENDS_TIP_AXIS_DEG)) * lu:
         return _pole(V, g, fit, R, dstar)  # not on the tube's axis seen from the dome: retry from its pole
