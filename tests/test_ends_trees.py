@@ -694,3 +694,19 @@ def test_flat_and_pointed_domes_are_tips(height, caplog):
              ("rounded", np.r_[0, 0, 6.0], 1.0, np.r_[0, 0, 1.0])]
     assert_ends_match(vessel_ends(V, F), truth)
     assert "extreme" not in caplog.text
+
+
+def test_a_dome_with_three_sinus_lobes_is_a_tip(caplog):
+    """A closed tube whose rounded end bulges into three lobes (an aortic root closed at its valve: the dome's
+    height scaled by 1 + 0.5 sin^2(phi) cos(3 theta), up to half again near the rim): a rounded end where the
+    hemisphere's centre is, with the tube's radius, found by the tip test (no fallback)."""
+    phi = np.linspace(0, np.pi / 2, 17)[1:]
+    zc = np.linspace(0.0, 6.0, 65)[1:-1]
+    V, F = revolve(np.r_[np.sin(phi), np.ones(len(zc)), np.sin(phi[::-1])],
+                   np.r_[-np.cos(phi), zc, 6.0 + np.cos(phi[::-1])], 48, bottom=-1.0, top=7.0)
+    low = V[:, 2] < 0
+    th, r = np.arctan2(V[low, 1], V[low, 0]), np.minimum(np.hypot(V[low, 0], V[low, 1]), 1.0)
+    V[low, 2] *= 1.0 + 0.5 * r**2 * np.cos(3 * th)
+    truth = [("rounded", np.zeros(3), 1.0, np.r_[0, 0, -1.0]), ("rounded", np.r_[0, 0, 6.0], 1.0, np.r_[0, 0, 1.0])]
+    assert_ends_match(vessel_ends(V, F), truth)
+    assert "extreme" not in caplog.text
