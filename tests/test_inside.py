@@ -114,19 +114,23 @@ def test_bend_check_holds_a_tube_to_curvature_times_radius_below_one(a, b):
         check_axis_bend(s, L, T, np.full(len(s), 1.05 / kappa), points=P)
 
 
+def _corner(n=3001, L=30.0):
+    """An axis 30 long whose tangent turns by 0.5 rad within 0.2 of arc at s = 0.6 (arc 17.9-18.1: kappa 2.5
+    there, 0 elsewhere): its samples' s, its length and the unit tangents."""
+    s = np.linspace(0, 1, n)
+    phi = 0.5 * np.clip((s * L - 18.0) / 0.2 + 0.5, 0, 1)
+    return s, L, np.c_[np.sin(phi), np.zeros(n), np.cos(phi)]
+
+
 def test_bend_check_finds_a_local_kink_and_passes_a_straight_axis():
     """A straight axis (no Frenet normal: the documented degenerate case) passes at any radius; a
     corner rounded over 0.2 of a radius at s = 0.6 is named there; the ends' margin is not checked."""
     from vesselgp.inside import check_axis_bend
 
-    n = 3001
-    s = np.linspace(0, 1, n)
-    L = 30.0
+    s, L, T = _corner()
+    n = len(s)
     straight = np.tile([0.0, 0.0, 1.0], (n, 1))
     check_axis_bend(s, L, straight, np.full(n, 5.0))
-    # the tangent turns by 0.5 rad within 0.2 length units at s = 0.6 (kappa 2.5 there, 0 elsewhere)
-    phi = 0.5 * np.clip((s * L - 18.0) / 0.2 + 0.5, 0, 1)
-    T = np.c_[np.sin(phi), np.zeros(n), np.cos(phi)]
     check_axis_bend(s, L, T, np.full(n, 0.35))  # kappa r 0.875
     with pytest.raises(vesselgp.NotTubularError, match=r"at s = 0\.59\d: curvature x radius = 1\.2"):
         check_axis_bend(s, L, T, np.full(n, 0.5))
@@ -139,11 +143,8 @@ def test_bend_check_skips_a_junction_zone_up_to_its_edge():
     named when the zone ends just before it."""
     from vesselgp.inside import check_axis_bend
 
-    n, L = 3001, 30.0
-    s = np.linspace(0, 1, n)
-    phi = 0.5 * np.clip((s * L - 18.0) / 0.2 + 0.5, 0, 1)
-    T = np.c_[np.sin(phi), np.zeros(n), np.cos(phi)]
-    r = np.full(n, 0.5)
+    s, L, T = _corner()
+    r = np.full(len(s), 0.5)
     check_axis_bend(s, L, T, r, ends_margin=0.0, skip_start=18.15)
     with pytest.raises(vesselgp.NotTubularError, match="bends tighter than its radius"):
         check_axis_bend(s, L, T, r, ends_margin=0.0, skip_start=18.0)
@@ -155,11 +156,8 @@ def test_bend_check_skips_a_medial_zone_up_to_its_edges():
     s 0.59-0.61 and is named when the zone stops short of it on either side."""
     from vesselgp.inside import check_axis_bend
 
-    n, L = 3001, 30.0
-    s = np.linspace(0, 1, n)
-    phi = 0.5 * np.clip((s * L - 18.0) / 0.2 + 0.5, 0, 1)
-    T = np.c_[np.sin(phi), np.zeros(n), np.cos(phi)]
-    r = np.full(n, 0.5)
+    s, L, T = _corner()
+    r = np.full(len(s), 0.5)
     check_axis_bend(s, L, T, r, skip=[[0.2, 0.3], [0.59, 0.61]])
     for zone in ([0.59, 0.598], [0.602, 0.61]):
         with pytest.raises(vesselgp.NotTubularError, match="bends tighter than its radius"):

@@ -507,64 +507,64 @@ def test_default_target_normal_on_an_oblique_bend(coronary):
     assert np.degrees(np.arccos(np.clip(other @ want, -1, 1))) > 5.0
 
 
-@pytest.mark.parametrize("kr, refused", [(0.9, False), (1.1, True)])
-def test_the_join_bend_guard_at_its_edge(kr, refused):
-    """Issue #35: a straight tube (radius 2) whose free half (15 long) is bent by the rod step to a target placed
-    where that step puts the end with no correction: its tangent turns by phi (3u^2 - 2u) along the free part
-    (the rod step, vesselgp.deform), so its curvature peaks at the end at 4 phi / 15. phi for kappa r = 0.9 is accepted, for 1.1
-    refused (the wall would fold); the measured peak is the analytic one within 3 %."""
-    from scipy.integrate import quad
-
+@pytest.fixture(scope="module")
+def straight_half_free():
+    """A straight open tube (radius 2, 30 long) held over its first half, and the free half's start on the axis:
+    the join problem whose targets the guard tests retarget (its first target, 2 beyond the end, is a stand-in)."""
     from vesselgp.deform import Frame
     from vesselgp.join import JoinProblem
-    from vesselgp.join_vessels import _plausible
     from vesselgp.synthetic import named_curve
 
-    r = 2.0
-    v = synthetic_vessel(named_curve("straight", length=30.0), radius=r, n_around=32, ends="open")
-    ends = vg.vessel_ends(v.V, v.F)
+    v = synthetic_vessel(named_curve("straight", length=30.0), radius=2.0, n_around=32, ends="open")
+    e = vg.vessel_ends(v.V, v.F)[1]
     gc = vg.fit_generalized_cylinder(v.V, v.F, ends=(0, 1))
-    e = ends[1]
     first = JoinProblem(v.V, v.F, np.flatnonzero(gc.vertex_s < 0.5), np.asarray(e.loop), Frame(
         e.center + 2.0 * e.direction, e.direction, [1.0, 0.0, 0.0]), gc=gc)
-    d = first.deformer
-    ell, T = d.free_length, _unit(d.end_tangent)
-    n = _unit(np.cross(T, [1.0, 0.0, 0.0]))
-    phi = kr * ell / (4.0 * r)
-    x = ell * quad(lambda u: np.cos(phi * (3 * u * u - 2 * u)), 0.0, 1.0)[0]
-    y = ell * quad(lambda u: np.sin(phi * (3 * u * u - 2 * u)), 0.0, 1.0)[0]
-    tan = np.cos(phi) * T + np.sin(phi) * n
-    p = first.retarget(Frame(gc.at([d.s_boundary])[0][0] + x * T + y * n, tan, np.cross(tan, n)))
-    assert p.placement.max_bend[0] == pytest.approx(kr, rel=0.03)
+    return first, gc.at([first.deformer.s_boundary])[0][0]
+
+
+def _guarded(p, refused, match):
+    from vesselgp.join_vessels import _plausible
+
     if refused:
-        with pytest.raises(ImplausibleJoinError, match="bends the vessel"):
+        with pytest.raises(ImplausibleJoinError, match=match):
             _plausible(p, 1.3)
     else:
         _plausible(p, 1.3)
 
 
+@pytest.mark.parametrize("kr, refused", [(0.9, False), (1.1, True)])
+def test_the_join_bend_guard_at_its_edge(straight_half_free, kr, refused):
+    """Issue #35: a straight tube (radius 2) whose free half (15 long) is bent by the rod step to a target placed
+    where that step puts the end with no correction: its tangent turns by phi (3u^2 - 2u) along the free part
+    (the rod step, vesselgp.deform), so its curvature peaks at the end at 4 phi / 15. phi for kappa r = 0.9 is
+    accepted, for 1.1 refused (the wall would fold); the measured peak is the analytic one within 3 %."""
+    from scipy.integrate import quad
+
+    from vesselgp.deform import Frame
+
+    first, start = straight_half_free
+    d = first.deformer
+    ell, T = d.free_length, _unit(d.end_tangent)
+    n = _unit(np.cross(T, [1.0, 0.0, 0.0]))
+    phi = kr * ell / (4.0 * 2.0)
+    x = ell * quad(lambda u: np.cos(phi * (3 * u * u - 2 * u)), 0.0, 1.0)[0]
+    y = ell * quad(lambda u: np.sin(phi * (3 * u * u - 2 * u)), 0.0, 1.0)[0]
+    tan = np.cos(phi) * T + np.sin(phi) * n
+    p = first.retarget(Frame(start + x * T + y * n, tan, np.cross(tan, n)))
+    assert p.placement.max_bend[0] == pytest.approx(kr, rel=0.03)
+    _guarded(p, refused, "bends the vessel")
+
+
 @pytest.mark.parametrize("stretch, refused", [(1.25, False), (1.35, True), (0.8, False), (0.74, True)])
-def test_the_join_stretch_and_compression_guards_at_their_edges(stretch, refused):
+def test_the_join_stretch_and_compression_guards_at_their_edges(straight_half_free, stretch, refused):
     """Issue #35: the same straight tube's free half pulled or pushed straight along its axis, the target that
     far from where the free part starts: the free axis is stretched exactly that much (1.25 and 0.8 are within
     max_stretch 1.3 and its inverse 0.77; 1.35 and 0.74 are refused)."""
     from vesselgp.deform import Frame
-    from vesselgp.join import JoinProblem
-    from vesselgp.join_vessels import _plausible
-    from vesselgp.synthetic import named_curve
 
-    v = synthetic_vessel(named_curve("straight", length=30.0), radius=2.0, n_around=32, ends="open")
-    ends = vg.vessel_ends(v.V, v.F)
-    gc = vg.fit_generalized_cylinder(v.V, v.F, ends=(0, 1))
-    e = ends[1]
-    first = JoinProblem(v.V, v.F, np.flatnonzero(gc.vertex_s < 0.5), np.asarray(e.loop), Frame(
-        e.center + 2.0 * e.direction, e.direction, [1.0, 0.0, 0.0]), gc=gc)
-    d = first.deformer
-    T = _unit(d.end_tangent)
-    p = first.retarget(Frame(gc.at([d.s_boundary])[0][0] + stretch * d.free_length * T, T, [1.0, 0.0, 0.0]))
+    first, start = straight_half_free
+    T = _unit(first.deformer.end_tangent)
+    p = first.retarget(Frame(start + stretch * first.deformer.free_length * T, T, [1.0, 0.0, 0.0]))
     assert p.placement.axial_stretch == pytest.approx(stretch, rel=1e-3)
-    if refused:
-        with pytest.raises(ImplausibleJoinError, match="stretched|compressed"):
-            _plausible(p, 1.3)
-    else:
-        _plausible(p, 1.3)
+    _guarded(p, refused, "stretched|compressed")

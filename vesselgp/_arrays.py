@@ -50,6 +50,18 @@ def unique_rows(A, return_index=False, return_inverse=False, return_counts=False
     return tuple(out) if len(out) > 1 else rows
 
 
+def true_runs(mask):
+    """Start and end index (inclusive) of each run of True in the boolean ``mask``: (k, 2) int64.
+
+    Examples
+    --------
+    >>> true_runs(np.array([0, 1, 1, 0, 1], bool)).tolist()
+    [[1, 2], [4, 4]]
+    """
+    d = np.diff(np.concatenate([[False], mask, [False]]).astype(np.int8))
+    return np.c_[np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1]
+
+
 def chunks(n, size):
     """Slices of at most ``size`` consecutive indices covering ``range(n)`` (one empty slice for n = 0).
 

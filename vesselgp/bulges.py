@@ -18,12 +18,14 @@ tip's region).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from . import tolerances as tol
+from ._arrays import true_runs
 
 __all__ = ["Bulge", "bulges", "tree_bulges"]
 
@@ -102,15 +104,16 @@ def bulges(s, radius, length, *, reach, margin=(0.0, 0.0)):
     w = max(int(round(reach / (float(length) * (s[1] - s[0])))), 1) if n > 1 else 1
     pad = np.concatenate([np.full(w, np.nan), r, np.full(w, np.nan)])
     win = sliding_window_view(pad, w)  # win[j] = pad[j:j + w]
-    with np.errstate(all="ignore"):
-        before = _nanmedian(win[:n])  # r[i - w], ..., r[i - 1]
-        after = _nanmedian(win[w + 1:w + 1 + n])  # r[i + 1], ..., r[i + w]
+    with warnings.catch_warnings():  # a window wholly past an end is all NaN: its median is NaN
+        warnings.simplefilter("ignore", RuntimeWarning)
+        before = np.nanmedian(win[:n], axis=1)  # r[i - w], ..., r[i - 1]
+        after = np.nanmedian(win[w + 1:w + 1 + n], axis=1)  # r[i + 1], ..., r[i + w]
     base = np.fmax(before, after)
     arc = s * float(length)
     judged = (arc >= margin[0]) & (float(length) - arc >= margin[1]) & np.isfinite(base)
     q = np.where(judged, r / np.where(judged, base, 1.0), 0.0)
     out, covered = [], np.zeros(n, bool)
-    for i0, i1 in _runs(q >= tol.TREE_BULGE_RATIO):
+    for i0, i1 in true_runs(q >= tol.TREE_BULGE_RATIO):
         k = i0 + int(np.argmax(q[i0:i1 + 1]))
         if covered[k]:  # a second peak within the first's stretch
             continue
@@ -120,24 +123,6 @@ def bulges(s, radius, length, *, reach, margin=(0.0, 0.0)):
         covered[a:b + 1] = True
         out.append([s[a], s[b], s[k], r[k], base[k]])
     return np.array(out, np.float64).reshape(-1, 5)
-
-
-def _nanmedian(rows):
-    """Median of each row ignoring NaN, NaN for an all-NaN row (no warning)."""
-    srt = np.sort(rows, axis=1)  # NaN last
-    cnt = np.sum(np.isfinite(rows), axis=1)
-    lo = np.maximum((cnt - 1) // 2, 0)
-    hi = np.maximum(cnt // 2, 0)
-    idx = np.arange(len(rows))
-    med = 0.5 * (srt[idx, lo] + srt[idx, hi])
-    return np.where(cnt > 0, med, np.nan)
-
-
-def _runs(mask):
-    """Start and end index (inclusive) of each run of True in ``mask``: (k, 2) int64."""
-    m = np.concatenate([[False], mask, [False]]).astype(np.int8)
-    d = np.diff(m)
-    return np.c_[np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1]
 
 
 def tree_bulges(paths):
@@ -156,16 +141,14 @@ def tree_bulges(paths):
     """
     found = []
     for k, p in enumerate(paths):
-        reach = tol.TREE_BULGE_REACH * float(np.median(p.radius_at(p.dense_s)))
         r = p.radius_at(p.dense_s)
-        margin = (float(r[0]), float(r[-1]))
-        for s0, s1, sp, rp, rb in bulges(p.dense_s, r, p.length, reach=reach, margin=margin):
+        reach = tol.TREE_BULGE_REACH * float(np.median(r))
+        for s0, s1, sp, rp, rb in bulges(p.dense_s, r, p.length, reach=reach, margin=(float(r[0]), float(r[-1]))):
             peak = p.dense_points[np.argmin(np.abs(p.dense_s - sp))]  # sp is one of the dense samples
             same = next((i for i, b in enumerate(found)
                          if np.linalg.norm(b.peak - peak) <= min(b.peak_radius, rp)), None)
             if same is None:
                 found.append(Bulge((k,), np.array([s0, s1]), float(sp), peak, float(rp), float(rb)))
             else:
-                b = found[same]
-                found[same] = Bulge(b.paths + (k,), b.s_range, b.s_peak, b.peak, b.peak_radius, b.neighbour_radius)
+                found[same] = replace(found[same], paths=found[same].paths + (k,))
     return tuple(found)

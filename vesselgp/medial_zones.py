@@ -35,6 +35,7 @@ import igl
 import numpy as np
 
 from . import tolerances as tol
+from ._arrays import true_runs
 from .axis import Axis
 from .curves import chord_length, resample_arclength
 
@@ -49,13 +50,6 @@ def _feet(X, L, aL):
     E = np.c_[np.arange(len(L) - 1), np.arange(1, len(L))]
     d2, seg, foot = igl.point_mesh_squared_distance(X, L, E)
     return aL[seg] + np.linalg.norm(foot - L[seg], axis=1), foot, np.sqrt(d2)
-
-
-def _runs(mask):
-    """Start and end index (inclusive) of each run of True in ``mask``: (k, 2) int64."""
-    m = np.concatenate([[False], mask, [False]]).astype(np.int8)
-    d = np.diff(m)
-    return np.c_[np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1]
 
 
 def medial_zones(nodes, line, radius, rscale, *, through=(False, False), fit_radius=None, skip_start=0.0):
@@ -134,7 +128,7 @@ def medial_zones(nodes, line, radius, rscale, *, through=(False, False), fit_rad
     lo, hi = lo[order], np.maximum.accumulate(hi[order])
     k = np.searchsorted(lo, aL, side="right") - 1
     marked = (k >= 0) & (aL <= hi[np.maximum(k, 0)])
-    runs = _runs(marked)
+    runs = true_runs(marked)
     zones = np.c_[aL[runs[:, 0]], aL[runs[:, 1]]]
     # smoothstep weight by the arc-length distance to the nearest zone, over TREE_MEDIAL_BLEND radii
     gap = np.min(np.maximum(0.0, np.maximum(zones[:, :1] - a[None], a[None] - zones[:, 1:2])), axis=0)

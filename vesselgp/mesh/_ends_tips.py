@@ -32,7 +32,7 @@ geodesic rings close in to a point like those of a hemisphere.
      ``R sin(d / R)`` (``ENDS_TIP_SPEED_TOL``, ``ENDS_TIP_LINE_TOL``,
      ``ENDS_TIP_RADIUS_TOL``, ``ENDS_TIP_ROUND_TOL``),
    * the tube's face normals are all across one axis (``ENDS_TIP_AXIS_SPREAD``)
-     and the candidate lies on that axis seen from the sphere's centre
+     and the candidate lies on that axis seen from the end's centre
      (``ENDS_TIP_AXIS_DEG``).
 
    A point on the wall of a tube (its rings wrap round the tube and split in
@@ -44,11 +44,11 @@ geodesic rings close in to a point like those of a hemisphere.
    radius is the tube's (``ENDS_TIP_RADIUS_TOL``: a hemisphere); a dome
    flatter or more pointed than that (0.3 to 2.8 radii tall; a real one may
    also be lobed or oblique: how closely it fits its sphere is not asked) is
-   a tip all the same, centred a radius in from its tip on the rings' axis. The candidate (a maximum of ``D``) lies off
-   the pole of a side branch that leaves its vessel at a wide angle, and its
-   rings are then oblique on the tube: when only the tube or pole checks fail,
-   the test is repeated once from the vertex where the rings' axis leaves the
-   dome. The Dijkstra radius grows from
+   a tip all the same, centred a radius in from its tip on the rings' axis.
+   The candidate (a maximum of ``D``) lies off the pole of a side branch that
+   leaves its vessel at a wide angle, and its rings are then oblique on the
+   tube: when only the tube or pole checks fail, the test is repeated once
+   from the vertex where the rings' axis leaves the dome. The Dijkstra radius grows from
    ``tolerances.ENDS_TIP_START_EDGES`` median edges by
    ``tolerances.ENDS_TIP_GROWTH`` until the test can decide, so the cost is
    that of the dome and a radius of tube (a few times more for the ridge in
@@ -337,15 +337,13 @@ def _hemisphere(V, faces, p, g, h, L):
     band = (g >= dstar) & (g <= far)
     walls = band[F[:, 0]] & band[F[:, 1]] & band[F[:, 2]]  # (no (m, 3) gather and row reduction)
     axis, flatness = _cylinder_axis(N[walls], A[walls])
+    c0 = fit[0]  # the rings' axis at the equator's distance
+    if axis @ (V[p] - c0) < 0:
+        axis = -axis
     if abs(Rs - R) > tol.ENDS_TIP_RADIUS_TOL * R:
         # a dome flatter or more pointed than a hemisphere (its sphere's radius is not the tube's, and
         # nor is its centre where the tube ends): the centre is a radius in from the tip on the rings' axis
-        c0 = fit[0]
-        if axis @ (V[p] - c0) < 0:
-            axis = -axis
         center = c0 + ((V[p] - c0) @ axis - R) * axis
-    if axis @ (V[p] - center) < 0:
-        axis = -axis
     u = V[p] - center
     lu = float(np.linalg.norm(u))
     log.debug("tip candidate %d: R %.4g, sphere %.4g (rms %.2g R), axis flatness %.2g, pole %.1f deg",
