@@ -529,6 +529,60 @@ def test_raw_voxel_faces_and_binary_marching_cubes_raise(spacing):
     _assert_staircase_error(V, F)
 
 
+def _zigzag(terraces, H, r1=3.0, r2=4.0, n=36):
+    """An open tube of revolution about z whose radius steps r1 -> r2 -> r1 ... ``terraces`` times.
+
+    Bands of height ``H`` alternate with flat annuli at the steps, which face -z and +z exactly;
+    with ``n`` = 36 the bands' faces face 5, 15, ... degrees from x, never within 1 degree of an
+    axis. Returns the mesh, its axis-facing area fraction and its terraces, from the n-gon's areas.
+    """
+    rho, z = [r1], [0.0]
+    for k in range(terraces):
+        rho += [rho[-1], r2 if k % 2 == 0 else r1]
+        z += [(k + 1) * H, (k + 1) * H]
+    rho, z = rho + [rho[-1]], z + [(terraces + 1) * H]
+    V, F = revolve(rho, z, n)
+    annulus = 0.5 * n * np.sin(2 * np.pi / n) * (r2 ** 2 - r1 ** 2)
+    bands = sum(n * 2 * r * np.sin(np.pi / n) * H for r in rho[::2])
+    return V, F, terraces * annulus / (terraces * annulus + bands)
+
+
+def _staircase_check(V, F):
+    from vesselgp.mesh._ends_staircase import check_staircase
+
+    N = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    A = np.linalg.norm(N, axis=1)
+    E = np.unique(np.sort(np.r_[F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=1), axis=0)
+    check_staircase(V, F, N / A[:, None], A, float(np.median(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1))))
+
+
+@pytest.mark.parametrize("factor", [0.96, 1.04])
+def test_staircase_guard_at_its_area_fraction(factor):
+    """24 terraces; the axis-facing share of the area just under and just over its limit."""
+    f0 = tol.STAIRCASE_AREA_FRACTION * factor
+    _, _, f1 = _zigzag(24, 1.0)  # the fraction falls as 1 / (1 + c H): solve for the H that gives f0
+    H = (1.0 / f0 - 1.0) / (1.0 / f1 - 1.0)
+    V, F, f = _zigzag(24, H)
+    assert f == pytest.approx(f0, rel=1e-9)
+    if factor < 1:
+        _staircase_check(V, F)
+    else:
+        with pytest.raises(EndsError, match="raw voxel staircase"):
+            _staircase_check(V, F)
+
+
+@pytest.mark.parametrize("extra", [-1, 0])
+def test_staircase_guard_at_its_terrace_count(extra):
+    """Well over the area share (about 0.4), one terrace short of the limit and at it."""
+    V, F, f = _zigzag(tol.STAIRCASE_MIN_TERRACES + extra, 1.5)
+    assert f > 1.4 * tol.STAIRCASE_AREA_FRACTION
+    if extra < 0:
+        _staircase_check(V, F)
+    else:
+        with pytest.raises(EndsError, match=f"in {tol.STAIRCASE_MIN_TERRACES} terraces"):
+            _staircase_check(V, F)
+
+
 def test_staircase_measure_separates_voxel_and_smooth_meshes(tree4):
     from skimage.measure import marching_cubes
 
@@ -654,6 +708,72 @@ def test_the_cap_flatness_at_its_edge(delta, kind):
     assert [e.kind for e in ends if e is not top] == ["cap"] and top.kind == kind
     if kind == "cap":
         assert abs(top.radius - 1.0) < 0.01 and abs(top.center[2] - 6.0) < np.tan(delta)
+
+
+def _capped_cone(phi, t, t_cone, grow, t0=0.0):
+    """A tube capped flat at z = 0 (radius 1, fan to a centre vertex) whose wall runs straight down for a length
+    ``t0``, then as a cone of half-angle ``phi`` (widening for ``grow`` = 1, narrowing for -1) for a slant
+    ``t_cone``, then as a cylinder to an open end; rings at slant distances ``t`` from the rim, along the
+    meridians."""
+    t = np.asarray(t, float)
+    c = np.clip(t - t0, 0.0, t_cone)
+    rho = 1.0 + grow * c * np.sin(phi)
+    z = -np.minimum(t, t0) - c * np.cos(phi) - np.maximum(t - t0 - t_cone, 0.0)
+    order = np.argsort(z)
+    return revolve(rho[order], z[order], 32, top=0.0)
+
+
+def _top_kind(V, F):
+    ends = vessel_ends(V, F)
+    assert [e.kind for e in ends].count("open") == 1
+    return max(ends, key=lambda e: e.center[2]).kind
+
+
+#: Rings of the flare tests: every 0.15 along the meridian up to 1.95, just inside CAP_TUBE_REACH (2 rim radii),
+#: the next one just outside it.
+_FLARE_T = np.r_[np.arange(0.0, 1.96, 0.15), 2.15, 2.5, 3.0, np.linspace(3.5, 9.0, 8)]
+
+
+@pytest.mark.parametrize("side", [-1, 1])
+def test_the_cap_rim_sharpness_at_its_edge(side):
+    """Issue #35: a cap's rim is sharp (dihedral angle above SHARP_EDGE_ANGLE, 1 rad) on at least
+    CAP_RIM_SHARP_FRACTION of its length. A wall leaving the rim as a cone widening at half-angle phi turns
+    pi / 2 - phi from the cap: sharp below phi = 0.571 rad. The cone is short (slant 0.3, the tube at most 1.17
+    rim radii wide, inside the flare bound). 0.02 rad below the edge the cap is found; 0.02 above it is not (the
+    end is then a rounded end)."""
+    edge = 0.5 * np.pi - tol.SHARP_EDGE_ANGLE
+    V, F = _capped_cone(edge + 0.02 * side, np.r_[0.0, 0.1, 0.2, 0.3, np.linspace(0.6, 9.0, 12)], 0.3, grow=1)
+    assert _top_kind(V, F) == ("cap" if side < 0 else "rounded")
+
+
+@pytest.mark.parametrize("side", [-1, 1])
+def test_the_cap_tube_flare_at_its_edge(side):
+    """Issue #35: behind a cap, the surface within CAP_TUBE_REACH rim radii (along the meridians) stays within
+    CAP_TUBE_SPREAD rim radii of the cap's axis plus CAP_TUBE_FLARE per unit depth. The wall runs straight for
+    t0 = 0.3 (a sharp rim), then widens at half-angle phi: at slant s into the cone it is 1 + s sin(phi) off the
+    axis at depth t0 + s cos(phi). The last ring inside the reach (s = 1.65) breaks the bound from
+    sin(phi) - FLARE cos(phi) = (SPREAD - 1 + FLARE t0) / 1.65 on, phi = 0.682 rad. 0.03 rad below, the cap is
+    found; 0.03 above, it is not."""
+    t0, t_last = 0.3, _FLARE_T[_FLARE_T < tol.CAP_TUBE_REACH].max()
+    assert t_last < tol.CAP_TUBE_REACH < _FLARE_T[_FLARE_T > t_last].min()
+    s = t_last - t0
+    edge = np.arctan(tol.CAP_TUBE_FLARE) + np.arcsin((tol.CAP_TUBE_SPREAD - 1.0 + tol.CAP_TUBE_FLARE * t0) / s
+                                                     / np.hypot(1.0, tol.CAP_TUBE_FLARE))
+    V, F = _capped_cone(edge + 0.03 * side, _FLARE_T, 2.7, grow=1, t0=t0)
+    assert _top_kind(V, F) == ("cap" if side < 0 else "rounded")
+
+
+@pytest.mark.parametrize("phi, kind", [(0.78, "cap"), (0.82, "rounded")])
+def test_the_cap_rim_tilt_at_its_edge(phi, kind):
+    """Issue #35: across a cap's rim the wall stands within CAP_RIM_TILT (0.8 rad) of perpendicular to the cap.
+    A cap on a cone narrowing behind it at half-angle phi has its wall's normals phi off the cap's plane: 0.78 rad
+    is a cap of radius 1 centred on the rim; 0.82 is not (the narrowing end is then a rounded end)."""
+    assert (phi < tol.CAP_RIM_TILT) == (kind == "cap")
+    V, F = _capped_cone(phi, np.r_[np.arange(0.0, 0.61, 0.1), np.linspace(1.0, 9.0, 9)], 0.6, grow=-1)
+    assert _top_kind(V, F) == kind
+    if kind == "cap":
+        top = max(vessel_ends(V, F), key=lambda e: e.center[2])
+        assert abs(top.radius - 1.0) < 0.01 and np.linalg.norm(top.center) < 0.01
 
 
 def _reshaped_tip(V, e, k):

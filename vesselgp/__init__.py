@@ -19,6 +19,7 @@ from .mesh import clean_mesh, vessel_ends, mesh_scale, stitch, CleanReport, Vess
 from .deform import Frame, deform_vessel  # noqa: F401
 from .join import JoinProblem, JoinResult, minimize_torsion  # noqa: F401
 from .join_vessels import VesselJoin, join_vessels  # noqa: F401
+from .prepared import PreparedMesh  # noqa: F401
 from .fit import GeneralizedCylinder, fit_generalized_cylinder  # noqa: F401
 from .tree import VesselTree, fit_vessel_tree  # noqa: F401
 from .torsion import TorsionMeter, TorsionProfile, measure_torsion  # noqa: F401

@@ -293,6 +293,11 @@ def branch_decomposition(V, F, ends, root=None, *, loops=None, lines=None):
     ([-1, 0, 0], 2)
     """
     V, F = as_mesh(V, F)
+    return decomposed(V, F, ends, root, loops=loops, lines=lines)
+
+
+def decomposed(V, F, ends, root=None, *, loops=None, lines=None):
+    """:func:`branch_decomposition` of validated arrays (a :class:`vesselgp.PreparedMesh`'s), not checked again."""
     if len(ends) < 3:
         raise EndsError(f"a tree needs at least three ends, the mesh has {len(ends)}; "
                         "fit a single vessel with vesselgp.fit_generalized_cylinder")

@@ -39,7 +39,6 @@ from __future__ import annotations
 import logging
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import igl
 import numpy as np
@@ -48,16 +47,16 @@ import scipy.sparse.linalg as spla
 
 from . import tolerances as tol
 from ._arrays import thinned
-from ._validate import as_mesh, as_vector
+from ._validate import as_vector
 from .axis import (Axis, AxisStack, circle_fit_solve, circle_fit_sums, hat, interp_frames,
                    local_coords, solve_banded_spd)
 from .curves import _chords, _resample_arclength, chord_length, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError
 from .inside import check_axis_bend, check_axis_inside
-from .mesh.orient import orient_faces
-from .mesh import MeshTopology, bbox_diagonal, mesh_scale, mesh_topology, select_ends, vessel_ends
+from .mesh import select_ends
+from .mesh.scale import scale_of
 from .mesh.geodesic import GeodesicDistances
-from .mesh._geometry import voronoi_areas
+from .prepared import CheckedMesh, checked_mesh, prepared_mesh  # noqa: F401 (vesselgp.fit.checked_mesh)
 
 log = logging.getLogger(__name__)
 
@@ -219,18 +218,18 @@ def _robust_weights(s, local, jac, area, radii, inside, rejected=None):
 # ----------------------------------------------------------------------------- initialisation
 
 
-def _resolve_ends(V, F, ends, topo, mesh_ends=None):
+def _resolve_ends(pm, ends):
     """The two ends to fit between, their indices, and how many ends the mesh has."""
     if ends is not None and len(ends) == 2 and all(hasattr(e, "center") for e in ends):
         return ends[0], ends[1], (-1, -1), 2
-    all_ends = vessel_ends(V, F, topology=topo) if mesh_ends is None else tuple(mesh_ends)
+    all_ends = pm.ends
     e0, e1 = select_ends(all_ends, ends)
     i0 = next(i for i, e in enumerate(all_ends) if e is e0)
     i1 = next(i for i, e in enumerate(all_ends) if e is e1)
     return e0, e1, (i0, i1), len(all_ends)
 
 
-def _ends_and_areas(V, F, Fg, ends, topo, mesh_ends):
+def _ends_and_areas(pm, ends):
     """:func:`_resolve_ends` and the wall's Voronoi areas (of the faces with an area, ``Fg``).
 
     From ``tolerances.THREAD_MIN_VERTICES`` vertices on, the areas are computed on a second
@@ -239,12 +238,12 @@ def _ends_and_areas(V, F, Fg, ends, topo, mesh_ends):
     when the ends raise. On smaller meshes the gain is a few per cent and the two steps'
     temporaries, alive at once, would raise the peak memory per vertex.
     """
-    if len(V) < tol.THREAD_MIN_VERTICES:
-        found = _resolve_ends(V, F, ends, topo, mesh_ends)
-        return (*found, voronoi_areas(V, Fg))
+    if len(pm.V) < tol.THREAD_MIN_VERTICES:
+        found = _resolve_ends(pm, ends)
+        return (*found, pm.areas)
     with ThreadPoolExecutor(1, thread_name_prefix="vesselgp-areas") as pool:
-        wall = pool.submit(voronoi_areas, V, Fg)
-        found = _resolve_ends(V, F, ends, topo, mesh_ends)
+        wall = pool.submit(lambda: pm.areas)  # the only thread that touches pm.areas until it is kept
+        found = _resolve_ends(pm, ends)
         return (*found, wall.result())
 
 
@@ -353,47 +352,9 @@ def _check_aspect(length, radius):
         )
 
 
-def _check_connected(topo):
-    """Raise :class:`InvalidMeshError` when the mesh has several connected pieces."""
-    ncomp = topo.vertex_components[0]
-    if ncomp > 1:
-        raise InvalidMeshError(
-            f"mesh has {ncomp} connected components; run vesselgp.clean_mesh (keeps the largest) "
-            "or fit each vessel separately"
-        )
-
-
-def _nondegenerate_faces(V, F):
-    """Faces whose area is well defined (above ``DEGENERATE_AREA`` times their longest edge squared)
-    and the median length of the face corners' edges (as :func:`vesselgp.mesh_scale` measures it).
-
-    Zero-area faces (collinear or repeated corners) have no cotangent weights;
-    they are left out of the area weights and the harmonic field (they carry no
-    surface). A vertex used only by such faces has no area and no field value:
-    that raises :class:`InvalidMeshError` suggesting :func:`vesselgp.clean_mesh`.
-    """
-    dbl = igl.doublearea(V, F)
-    L = igl.edge_lengths(V, F)
-    e2 = np.maximum(np.maximum(L[:, 0], L[:, 1]), L[:, 2]) ** 2  # a tenth of L.max(axis=1)'s time
-    bad = ~(dbl > 2.0 * tol.DEGENERATE_AREA * e2)
-    med = float(np.median(L, overwrite_input=True))  # L is not needed after: no copy of it
-    if not bad.any():
-        return F, med
-    Fg = F[~bad]
-    lost = len(V) - len(np.unique(Fg)) if len(Fg) else len(V)
-    if lost:
-        raise InvalidMeshError(
-            f"mesh has {int(bad.sum())} zero-area faces and {lost} vertices used only by them; "
-            "run vesselgp.clean_mesh first"
-        )
-    log.info("fit ignores %d zero-area faces (vesselgp.clean_mesh removes exactly degenerate ones)",
-             int(bad.sum()))
-    return Fg, med
-
-
-def _log_scale(V, F, e0, e1, median_edge):
+def _log_scale(V, e0, e1, median_edge):
     """Log the mesh's scale; warn when its units look like metres or centimetres (or micrometres)."""
-    sc = mesh_scale(V, F, ends=(e0, e1), median_edge=median_edge)
+    sc = scale_of(V, median_edge, (e0, e1))
     r0, r1 = sc.radius_range
     report = (f"median edge {sc.median_edge:.3g}, end radii {r0:.3g} to {r1:.3g}, "
               f"bounding-box diagonal {sc.bbox_diagonal:.3g}")
@@ -408,7 +369,7 @@ def _log_scale(V, F, e0, e1, median_edge):
 
 def fit_generalized_cylinder(
     V,
-    F,
+    F=None,
     ends=None,
     *,
     n_nodes=None,
@@ -434,8 +395,9 @@ def fit_generalized_cylinder(
 
     Parameters
     ----------
-    V : (n, 3) float64
-        Vertex positions.
+    V : (n, 3) float64 or PreparedMesh
+        Vertex positions, or a :class:`vesselgp.PreparedMesh` (checked once for several fits;
+        ``F`` and ``mesh_ends`` are then left out).
     F : (m, 3) int64
         Triangles.
     ends : None, (int, int) or (VesselEnd, VesselEnd), optional
@@ -492,18 +454,17 @@ def fit_generalized_cylinder(
     >>> bool(abs(gc.mean_radius - 1.5) < 0.02)
     True
     """
-    V, F = as_mesh(V, F)
-    F, topo = orient_faces(V, F)  # a winding fault alone is mended (logged), not refused
+    pm = prepared_mesh(V, F, mesh_ends)  # validated, oriented and checked once (vesselgp.prepared)
+    V, F, checked = pm.V, pm.F, pm.checked
     lam = tol.GC_LAMBDA if lam is None else float(lam)
     mu = tol.GC_MU if mu is None else float(mu)
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
     _check_options(n_nodes, lam, mu, max_iter)
-    checked = checked_mesh(V, F, topo)
     topo, Fg, median_edge = checked
     if initial_normal is not None:
         initial_normal = as_vector(initial_normal, "initial_normal")
-    e0, e1, end_ids, n_ends, wall_area = _ends_and_areas(V, F, Fg, ends, topo, mesh_ends)
-    _log_scale(V, F, e0, e1, median_edge)
+    e0, e1, end_ids, n_ends, wall_area = _ends_and_areas(pm, ends)
+    _log_scale(V, e0, e1, median_edge)
     rscale = 0.5 * (float(e0.radius) + float(e1.radius))
     if not np.isfinite(rscale) or rscale <= 0:
         raise NotTubularError("mesh is not tubular: the ends have no positive radius")
@@ -523,8 +484,8 @@ def fit_generalized_cylinder(
     axis = Axis(it.nodes, initial_normal)
     s_raw = axis.project(V, it.s if sub.step == 1 else _spread_to_neighbours(topo.adjacency, sub, it.s), None)
     gc = cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids)
-    check_axis_inside(V, F, gc.s, gc.centers, gc.radii, loops=topo.boundary_loops)
-    check_cylinder_bend(gc, bbox_diagonal(V))
+    check_axis_inside(V, F, gc.s, gc.centers, gc.radii, winding=pm.winding)
+    check_cylinder_bend(gc, pm.winding.scale)
     return gc
 
 
@@ -811,59 +772,6 @@ def _check_options(n_nodes, lam, mu, max_iter):
         raise OptionError(f"lam and mu must be finite and non-negative, got {lam!r}, {mu!r}")
     if max_iter < 1:
         raise OptionError(f"max_iter must be at least 1, got {max_iter}")
-
-
-class CheckedMesh(NamedTuple):
-    """What :func:`checked_mesh` found: the topology, the faces with an area, the median edge."""
-
-    #: One edge table for the checks, the ends and the axis check.
-    topology: MeshTopology
-    #: (m', 3) int64: ``F`` without its zero-area faces.
-    faces: np.ndarray
-    #: Median length of the face corners' edges (:func:`vesselgp.mesh_scale`'s measure).
-    median_edge: float
-
-    @property
-    def faces_topology(self):
-        """``topology`` when it is also that of ``faces`` (no face was dropped), else None."""
-        return self.topology if len(self.faces) == self.topology.n_faces else None
-
-
-def checked_mesh(V, F, topology=None):
-    """The checks every fit makes of its mesh; its topology and the faces with a well-defined area.
-
-    Parameters
-    ----------
-    V : (n, 3) float64
-    F : (m, 3) int64
-    topology : MeshTopology, optional
-        Of ``F``, when already built (:func:`vesselgp.mesh.orient.orient_faces` returns it).
-
-    Returns
-    -------
-    CheckedMesh
-        ``(topology, faces, median_edge)``: the :class:`MeshTopology`, ``F``
-        without its zero-area faces, and the median edge length.
-
-    Raises
-    ------
-    InvalidMeshError
-        Unreferenced vertices, several connected components, or vertices used only
-        by zero-area faces.
-    """
-    _check_used(V, F)
-    topo = mesh_topology(F, len(V)) if topology is None else topology
-    _check_connected(topo)
-    return CheckedMesh(topo, *_nondegenerate_faces(V, F))
-
-
-def _check_used(V, F):
-    used = np.zeros(len(V), bool)
-    used[F.ravel()] = True
-    if not used.all():
-        raise InvalidMeshError(
-            f"mesh has {int((~used).sum())} unreferenced vertices; run vesselgp.clean_mesh first"
-        )
 
 
 def _data_weights(V, Fg, wall_area, e0, e1, n_ends, rscale, geodesics=None, topology=None):

@@ -41,19 +41,16 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import tolerances as tol
-from ._validate import as_mesh
 from .axis import Axis
-from .branches import branch_decomposition, root_end
+from .branches import decomposed, root_end
 from .bulges import tree_bulges
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
-from .fit import (check_cylinder_bend, checked_mesh, cylinder_from_axis,
+from .fit import (check_cylinder_bend, cylinder_from_axis,
                   FitProblem, fit_generalized_cylinder, fixed_points)
-from .inside import SurfaceWinding, check_axis_inside
-from .mesh.orient import orient_faces
-from .mesh import vessel_ends
-from .mesh._geometry import voronoi_areas
+from .inside import check_axis_inside
 from .medial_zones import medial_zones
+from .prepared import prepared_mesh
 from .rotations import minimal_rotation
 
 log = logging.getLogger(__name__)
@@ -385,25 +382,17 @@ def _refooted(axis, P, s_start, s, rscale):
     return s
 
 
-def _tree_ends(V, F, topo, ends):
-    """The mesh's ends (given or found), validated."""
-    if ends is None:
-        return tuple(vessel_ends(V, F, topology=topo))
-    ends = tuple(ends)
-    if not all(hasattr(e, "center") and hasattr(e, "vertices") for e in ends):
-        raise EndsError("ends must be VesselEnd objects (from vesselgp.vessel_ends)")
-    return ends
-
-
 # ----------------------------------------------------------------------------- public entry
 
 
-def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=None, geodesics=None):
+def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_iter=None, geodesics=None):
     """Fit a branching vessel mesh as a tree of generalized cylinders (see the module notes).
 
     Parameters
     ----------
-    V : (n, 3) float64
+    V : (n, 3) float64 or PreparedMesh
+        Vertex positions, or a :class:`vesselgp.PreparedMesh` (checked once for several fits;
+        ``F`` and ``ends`` are then left out).
     F : (m, 3) int64
     root : int, optional
         Index into the ends of the root end; default the widest.
@@ -442,29 +431,27 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
     >>> tree.parent.tolist(), [p.ends for p in tree.paths], tree.junctions.shape
     ([-1, 0, 0], [(0, 1), (0, 2)], (1, 3))
     """
-    V, F = as_mesh(V, F)
-    F, topo = orient_faces(V, F)  # a winding fault alone is mended (logged), not refused
+    pm = prepared_mesh(V, F, ends)  # validated, oriented and checked once (vesselgp.prepared)
+    V, F, (topo, Fg, _) = pm.V, pm.F, pm.checked
     lam = tol.GC_LAMBDA if lam is None else float(lam)
     mu = tol.GC_MU if mu is None else float(mu)
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
-    checked = checked_mesh(V, F, topo)
-    topo, Fg, _ = checked
     if geodesics is not None:
         geodesics.check(V, Fg)
-    ends = _tree_ends(V, F, topo, ends)
+    ends = pm.ends
     if len(ends) < 2:
         raise EndsError(f"a vessel tree needs at least two ends, the mesh has {len(ends)} "
                         "(see vesselgp.vessel_ends)")
     root = root_end(ends, root)
     if len(ends) == 2:
-        gc = fit_generalized_cylinder(V, F, ends=(root, 1 - root), lam=lam, mu=mu, max_iter=max_iter,
-                                      mesh_ends=ends, geodesics=geodesics)
+        gc = fit_generalized_cylinder(pm, ends=(root, 1 - root), lam=lam, mu=mu, max_iter=max_iter,
+                                      geodesics=geodesics)
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                           vertex_branch=np.zeros(len(V), np.int64), junction_zone=np.zeros(1),
                           medial_zones=(np.zeros((0, 2)),), bulges=tree_bulges((gc,)))
-    area = voronoi_areas(V, Fg)
-    br = branch_decomposition(V, Fg, ends, root, loops=topo.boundary_loops)
+    area = pm.areas
+    br = decomposed(V, Fg, ends, root, loops=topo.boundary_loops)
     caps, leaf_tip, problems, ids = _branch_problems(V, area, ends, root, br)
     # the branches' fixed points in lock step (one vectorised pass per iteration over all of them)
     fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit")
@@ -490,7 +477,7 @@ def fit_vessel_tree(V, F, root=None, *, ends=None, lam=None, mu=None, max_iter=N
         medial[b] = np.concatenate([medial[b], line[np.searchsorted(chord_length(line), zones)]])
     branches, axes = _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu)
     paths, path_branches = _paths(V, area, caps, branches, axes, raw, br, root, lam, mu)
-    winding = SurfaceWinding(V, F, topo.boundary_loops)  # one closed surface for every path
+    winding = pm.winding  # one closed surface for every path
     for p in paths:
         check_axis_inside(V, F, p.s, p.centers, p.radii, winding=winding)
     medial = tuple(_zone_s(a, m) for a, m in zip(axes, medial))

@@ -44,12 +44,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import tolerances as tol
-from ._validate import as_mesh
 from .errors import EndsError
-from .mesh import vessel_ends
 from .mesh._ends_format import end_listing
 from .rotations import wrap_angle
 from .fit import fit_generalized_cylinder
+from .prepared import PreparedMesh
 from .tree import fit_vessel_tree
 
 log = logging.getLogger(__name__)
@@ -227,13 +226,12 @@ def scan_landmarks(V, F, ends=None):
     EndsError
         Bad ends, or fewer than two landmarks.
     """
-    V, F = as_mesh(V, F)
-    all_ends = vessel_ends(V, F)
-    i, j = _main_ends(all_ends, ends, "ends")
-    tree = fit_vessel_tree(V, F, i, ends=all_ends)
+    pm = PreparedMesh(V, F)  # checked once for both fits (issue #34)
+    i, j = _main_ends(pm.ends, ends, "ends")
+    tree = fit_vessel_tree(pm, root=i)
     k = next(q for q, p in enumerate(tree.paths) if p.ends[1] == j)
     on_main = set(tree.path_branches[k])
-    main = fit_generalized_cylinder(V, F, ends=(i, j), mesh_ends=all_ends)
+    main = fit_generalized_cylinder(pm, ends=(i, j))
     rows = []
     for b in tree.path_branches[k][:-1]:
         J = tree.junctions[int(np.flatnonzero(tree.junction_branch == b)[0])]

@@ -160,6 +160,14 @@ def vessel_ends(V, F, *, topology=None):
     """
     V, F = as_mesh(V, F)
     F, topo = orient_faces(V, F, _topology_of(F, len(V), topology))
+    return found_ends(V, F, topo)
+
+
+def found_ends(V, F, topo):
+    """:func:`vessel_ends` of a mesh already validated and oriented (``topo`` of ``F``), not checked again.
+
+    For :class:`vesselgp.PreparedMesh`, which validates its arrays and orients its faces once.
+    """
     N, A = _face_normals(V, F)
     w = topo.edge_lengths(V)
     h = float(np.median(w)) if len(w) else 0.0

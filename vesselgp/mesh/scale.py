@@ -79,7 +79,11 @@ def mesh_scale(V, F, ends=None, *, median_edge=None):
     ('m', True)
     """
     V, F = as_mesh(V, F)
-    med = _median_edge(V, F) if median_edge is None else float(median_edge)
+    return scale_of(V, _median_edge(V, F) if median_edge is None else float(median_edge), ends)
+
+
+def scale_of(V, med, ends=None):
+    """:func:`mesh_scale` of validated vertices ``V`` whose median edge ``med`` is known (not checked again)."""
     diag = bbox_diagonal(V)
     rr = None
     if ends:
