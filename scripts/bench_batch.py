@@ -14,10 +14,20 @@ drifts by tens of per cent within a minute):
 
 The results of the runs must agree to 1e-9.
 
+``--crossover`` measures instead where Dask starts to pay (issue #36): whole commands
+``vesselgp batch --workers 0`` and ``--workers 2`` on the first ``n`` rows of a cohort of small
+distinct meshes, for growing ``n``, and a least-squares fit of both times against the serial work
+(the sum of the rows' own times): serial = a + W, Dask = a + C + W / S. C is Dask's fixed cost
+(import, cluster start-up, the workers' imports, shut-down), S its speed-up on the rows; the
+default runner's rule (``tolerances.BATCH_DASK_STARTUP_S``, ``BATCH_DASK_EFFICIENCY``, ``BATCH_DASK_ROW_S``) is set
+from them.
+
 Usage::
 
     python scripts/bench_batch.py               # 16 meshes of ~60k vertices
     python scripts/bench_batch.py --n 12 --vertices 15000
+    python scripts/bench_batch.py --crossover tree --counts 1 2 3 4 6 8 12
+    python scripts/bench_batch.py --crossover vessel --counts 8 16 32 64 128
 """
 from __future__ import annotations
 
@@ -107,15 +117,83 @@ def batch_targets(r):
              "status": "PASS" if r["speedup"] >= SPEEDUP_TARGET and r["agree_1e-9"] else "MISS"}]
 
 
+def make_small_cohort(folder, n, kind):
+    """``n`` distinct small meshes: Y-shaped trees (~6k vertices, ~0.4 s a row) or single vessels (~1-4k, ~0.04 s)."""
+    import vesselgp as vg
+    from vesselgp.synthetic import synthetic_tree, synthetic_vessel
+
+    rows = ["mesh"]
+    for i in range(n):
+        if kind == "tree":
+            m = synthetic_tree(levels=1, voxel=0.6, seed=i)
+        else:
+            m = synthetic_vessel(("arc", "straight", "s_curve", "helix")[i % 4], radius=1.2 + 0.01 * i,
+                                 n_around=16 + i % 16)
+        vg.write_mesh(Path(folder) / f"m{i:03d}.ply", m.V, m.F)
+        rows.append(f"m{i:03d}.ply")
+    return rows
+
+
+def bench_crossover(kind="tree", counts=(1, 2, 3, 4, 6, 8, 12), repeat=2):
+    """Whole commands, serial and on 2 Dask workers, on the first ``n`` rows; the fitted fixed cost and speed-up."""
+    import json
+
+    with tempfile.TemporaryDirectory(prefix="vesselgp-bench-crossover-") as tmp:
+        rows = make_small_cohort(tmp, max(counts), kind)
+        table = []
+        for n in counts:
+            manifest = Path(tmp) / f"first{n}.csv"
+            manifest.write_text("\n".join(rows[:n + 1]) + "\n")
+            t = {}
+            for rep in range(repeat):
+                for w in (0, 2):
+                    out = Path(tmp) / f"out{n}-{w}-{rep}"
+                    t0 = time.perf_counter()
+                    r = subprocess.run([sys.executable, "-c", CLI, "batch", str(manifest), "-o", str(out), "--workers",
+                                        str(w), "-q", "--json"], check=True, capture_output=True, text=True)
+                    t[w] = min(t.get(w, np.inf), time.perf_counter() - t0)
+                    if w == 0 and rep == 0:
+                        import csv
+
+                        with open(out / "results.csv") as fh:
+                            work = sum(float(x["time_s"]) for x in csv.DictReader(fh))
+                    assert json.loads(r.stdout)["failed"] == 0
+            table.append({"n": n, "work_s": work, "serial_s": t[0], "dask_s": t[2]})
+    W = np.array([r["work_s"] for r in table])
+    ser = np.array([r["serial_s"] for r in table])
+    dask = np.array([r["dask_s"] for r in table])
+    a = float(np.median(ser - W))  # serial = a + W: the command's own start-up and imports
+    # dask = a + C + W / S, with W read off the serial command (serial - a): its noise is the machine's drift
+    (inv_s, c), *_ = np.linalg.lstsq(np.c_[ser - a, np.ones_like(ser)], dask - a, rcond=None)
+    return {"kind": kind, "rows": table, "startup_s": a, "dask_fixed_s": float(c), "dask_speedup": float(1 / inv_s),
+            "crossover_work_s": float(c / (1 - inv_s)) if inv_s < 1 else None}
+
+
+def crossover_markdown(r):
+    lines = [f"{r['kind']} rows: command start-up {r['startup_s']:.2f} s; Dask's fixed cost {r['dask_fixed_s']:.2f} s, "
+             f"speed-up on 2 workers {r['dask_speedup']:.2f}: Dask pays above "
+             + (f"{r['crossover_work_s']:.2f} s of serial work" if r["crossover_work_s"] else "never"),
+             "", "| rows | serial work (s) | --workers 0 (s) | --workers 2 (s) | Dask / serial |",
+             "|---:|---:|---:|---:|---:|"]
+    lines += [f"| {x['n']} | {x['work_s']:.2f} | {x['serial_s']:.2f} | {x['dask_s']:.2f} | "
+              f"{x['dask_s'] / x['serial_s']:.2f} |" for x in r["rows"]]
+    return "\n".join(lines)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=16)
     ap.add_argument("--vertices", type=int, default=60_000)
     ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--crossover", choices=("tree", "vessel"), help="measure where Dask starts to pay, on these rows")
+    ap.add_argument("--counts", type=int, nargs="+", default=[1, 2, 3, 4, 6, 8, 12], help="row counts of --crossover")
     args = ap.parse_args(argv)
     import logging
 
     logging.basicConfig(level=logging.ERROR)
+    if args.crossover:
+        print(crossover_markdown(bench_crossover(args.crossover, args.counts, args.repeat)))
+        return 0
     r = bench_batch(args.n, args.vertices, repeat=args.repeat)
     print(batch_markdown(r))
     for t in batch_targets(r):

@@ -42,25 +42,27 @@ def test_fit_writes_the_tree(tree_file, tmp_path, capsys):
     assert d["bulges"] == [] and summary["bulges"] == []
     J, R = t.truth.junctions
     assert np.linalg.norm(np.array(d["junctions"][0]["point"]) - J[0]) < 0.5 * R[0]
-    # VTP: one line per branch, VMTK's radius name beside ours, branch and parent ids per line
+    # VTP as VMTK's branch extractor lays it out: per path (CenterlineIds) its tracts (TractIds) from the root; a
+    # child's junction zone a blanked tract of its own; the trunk one group shared by both paths
     root = ET.parse(out / "tree.vtp").getroot()
     piece = root.find("PolyData/Piece")
-    assert piece.get("NumberOfLines") == "3"
+    assert piece.get("NumberOfLines") == "6"
     pdata, cdata = _arrays(piece.find("PointData")), _arrays(piece.find("CellData"))
-    assert np.array_equal(pdata["Radius"], pdata["MaximumInscribedSphereRadius"])
-    assert cdata["BranchId"].tolist() == [0, 1, 2] and cdata["ParentId"].tolist() == [-1, 0, 0]
-    offsets = _arrays(piece.find("Lines"))["offsets"]
-    assert offsets[-1] == int(piece.get("NumberOfPoints"))
+    assert cdata["CenterlineIds"].tolist() == [0, 0, 0, 1, 1, 1] and cdata["TractIds"].tolist() == [0, 1, 2] * 2
+    assert cdata["GroupIds"].tolist() == [0, 1, 2, 0, 3, 4] and cdata["Blanking"].tolist() == [0, 1, 0, 0, 1, 0]
+    lines = _arrays(piece.find("Lines"))
+    cells = np.split(lines["connectivity"].astype(int), lines["offsets"][:-1].astype(int))
+    assert cells[0][-1] == cells[1][0] == cells[4][0]  # the junction point, shared
     pts = _arrays(piece.find("Points"))[None].reshape(-1, 3)
     d_true, r_true, _, _ = t.truth.nearest(pts)
     keep = t.truth.interior_mask(pts)
-    assert (d_true[keep] < 0.05 * r_true[keep]).all()  # the nodes lie on the true centre lines
-    assert np.abs(pdata["Radius"][keep] / r_true[keep] - 1).max() < 0.05
-    # PLY: vertices and edges, one edge fewer per line than its points
+    assert (d_true[keep] < 0.05 * r_true[keep]).all()  # the points lie on the true centre lines
+    assert np.abs(pdata["MeanRadius"][keep] / r_true[keep] - 1).max() < 0.05
+    assert np.abs(pdata["MaximumInscribedSphereRadius"][keep] / r_true[keep] - 1).max() < 0.05
+    # PLY: vertices and each cell's edges
     ply = (out / "tree.ply").read_text()
-    nv = int(ply.split("element vertex ")[1].split()[0])
     ne = int(ply.split("element edge ")[1].split()[0])
-    assert ne == nv - 3
+    assert ne == sum(len(c) - 1 for c in cells)
     Vb, Fb = read_mesh(out / "mesh_branches.ply")[:2]
     assert len(Vb) == len(t.V)
     assert_png(out / "tree.png")

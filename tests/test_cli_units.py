@@ -121,13 +121,14 @@ def test_torsion_in_metres(vessel, tmp_path, capsys):
 
 def test_torsion_ends_choose_the_path_of_a_bifurcation(tmp_path, capsys):
     rc, o, e = run(["torsion", Y, Y, "-o", tmp_path / "none", "--no-png"], capsys)
-    assert_error(rc, o, e, "3 open ends")  # which path? the fit cannot tell
+    assert_error(rc, o, e, "3 open ends; pass --ends I J to choose")  # which path? the fit cannot tell
+    assert not (tmp_path / "none").exists()  # the refused run left no empty folder (issue #36)
     for ends in ((0, 1), (0, 2)):
         d = json_run(["torsion", Y, Y, "--ends", *ends, "-o", tmp_path / f"e{ends[1]}", "--no-png"], capsys)
         assert abs(d["total_twist_deg"]) < 1e-6 and d["energy"] < 1e-10  # the identity: no twist
         assert 60 < d["length"] < 120  # aorta -> iliac, in mm
     rc, o, e = run(["torsion", Y, Y, "--ends", 0, 7, "-o", tmp_path / "bad", "--no-png"], capsys)
-    assert_error(rc, o, e, "ends=(0, 7) is invalid")
+    assert_error(rc, o, e, "--ends 0 7 is invalid")  # the option, not the Python keyword (issue #36)
 
 
 def test_clean_units_and_smoothing(vessel, tmp_path, capsys):

@@ -15,6 +15,7 @@ from .curves import rotation_minimizing_frames, curve_tangents, frenet  # noqa: 
 # Each stage adds its public names on its own line below.
 from .viz import torsion_colors, render_mesh, plot_energy_curve  # noqa: F401
 from .io import read_mesh, write_mesh  # noqa: F401
+from ._validate import as_mesh  # noqa: F401
 from .mesh import clean_mesh, vessel_ends, mesh_scale, stitch, CleanReport, VesselEnd, MeshScale, MeshTopology  # noqa: F401
 from .deform import Frame, deform_vessel  # noqa: F401
 from .join import JoinProblem, JoinResult, minimize_torsion  # noqa: F401

@@ -3,9 +3,13 @@
 A manifest (CSV) lists the inputs, one row each; its columns say what a row computes:
 
 * ``mesh``: the vessel's fit (a tree when it has more than two ends): number of
-  ends and paths, centre-line length, mean, min and max radius, tortuosity
-  (path length over the distance between its ends) and statistics of the
-  curvature and Frenet torsion of each path;
+  ends and paths, and of its main path (for a single vessel the path between its
+  two ends; for a tree the path from the root, the widest end, to the tip farthest
+  along the centre lines) the centre-line length, mean (length-weighted), min and
+  max radius, tortuosity (path length over the distance between its ends) and
+  statistics of its curvature and Frenet torsion; ``total_branch_length`` is the
+  sum of the tree's branches (a single vessel's length). Every path of a tree is
+  in the row's JSON (``detail.paths``);
 * ``rest`` and ``deformed``: :func:`vesselgp.measure_torsion` (total twist, energy
   of Eq. 8, max ``|alpha'|``);
 * ``scan_a`` and ``scan_b``: :func:`vesselgp.twist_between` (total twist, landmarks,
@@ -13,23 +17,35 @@ A manifest (CSV) lists the inputs, one row each; its columns say what a row comp
 
 Optional columns: ``ends`` (``"0 1"``; for a ``scan_a,scan_b`` row, scan A's main-vessel ends) and
 ``units`` (``mm``, ``cm``, ``m``, ``um``).
-Relative paths are relative to the manifest's folder.
+Relative paths are relative to the manifest's folder. Any other columns (``patient_id``, ``age``,
+``side``, ...) are the cohort's own: every column of the manifest is carried unchanged (its text,
+in manifest order) into the results, first, before the results' own columns (:data:`RESULT_COLUMNS`,
+which a manifest column may therefore not be named: it is refused, to be renamed).
 
-The rows run as tasks on ``dask.distributed``: on a ``LocalCluster`` of worker
-processes by default, or on any cluster a ``Client`` connects to. A row that
-fails (a :class:`vesselgp.VesselError`, any other exception, a worker that
+The rows run in this process, or as tasks on ``dask.distributed``: on a
+``LocalCluster`` of worker processes, or on any cluster a ``Client`` connects to.
+By default the rows run here, one after another, while the rows left would take
+less time than a local cluster saves on them (its start-up costs about
+``tolerances.BATCH_DASK_STARTUP_S``); once they would take longer, the rest go to a
+cluster of one worker per core (:func:`dask_pays`, judged from the rows' own times).
+A row that fails (a :class:`vesselgp.VesselError`, any other exception, a worker that
 dies, or a task running longer than ``timeout``) is recorded in its row and the
 batch goes on. Results are written atomically: ``OUT/results.csv`` (one row per
 input, in manifest order; ``results.parquet`` too when pyarrow is installed) and
 one JSON per row under ``OUT/rows/``, named by the row's key: the SHA-256 of
 the input files' contents plus the kind, the options and vesselgp's version. A
 re-run skips every row whose key already has a result, so an interrupted batch
-resumes (``retry_errors`` runs the failed rows again).
+resumes (``retry_errors`` runs the failed rows again); the manifest's own columns
+are not part of the key (a corrected ``age`` is no reason to fit again): a re-run
+takes them from the manifest given, and rewrites a row's JSON when they changed.
+Rows with the same inputs and options share one result and one JSON, which holds
+the first such row's columns (``results.csv`` holds each row's own).
 """
 from __future__ import annotations
 
 import csv
 import hashlib
+import importlib.util
 import io
 import json
 import logging
@@ -48,12 +64,23 @@ from .io import atomic_write, to_json, write_json
 
 log = logging.getLogger(__name__)
 
-__all__ = ["run", "BatchReport", "read_manifest", "run_row", "KINDS"]
+__all__ = ["run", "BatchReport", "read_manifest", "run_row", "dask_pays", "KINDS", "METRICS", "RESULT_COLUMNS"]
 
 #: Manifest columns of each kind of row.
 KINDS = {"mesh": ("mesh",), "torsion": ("rest", "deformed"), "twist": ("scan_a", "scan_b")}
-#: Columns every row of results.csv starts with.
+#: Columns of results.csv after the manifest's own: every row has them.
 BASE_COLUMNS = ("row", "kind", "inputs", "key", "status", "error_type", "error", "time_s")
+#: Result columns of each kind of row (the row's ``metrics``), after :data:`BASE_COLUMNS`.
+METRICS = {
+    "mesh": ("n_vertices", "n_ends", "n_paths", "main_path_ends", "length", "mean_radius", "min_radius", "max_radius",
+             "total_branch_length", "tortuosity", "curvature_mean", "curvature_max", "frenet_torsion_abs_mean",
+             "frenet_torsion_abs_max"),
+    "torsion": ("n_vertices", "total_twist_deg", "energy", "max_abs_dalpha_deg", "length",
+                "twist_per_length_deg_per_cm"),
+    "twist": ("n_landmarks", "total_twist_deg", "length", "mean_twist_per_length_deg_per_cm", "n_unmatched"),
+}
+#: Every column vesselgp adds to results.csv: a manifest column may not have one of these names.
+RESULT_COLUMNS = tuple(dict.fromkeys(BASE_COLUMNS + sum(METRICS.values(), ())))
 
 
 @dataclass(frozen=True)
@@ -70,6 +97,11 @@ class BatchReport:
     files : list of str
         Files written.
     time_s : float
+    runner : {"serial", "dask", "serial, then dask", "none"}
+        What computed the rows: this process, Dask, this process until Dask paid
+        (:func:`dask_pays`), or nothing (every row was done before).
+    serial_rows, dask_rows : int
+        Rows computed in this process and on Dask.
     """
 
     rows: list
@@ -78,42 +110,81 @@ class BatchReport:
     failed: int
     files: list
     time_s: float
+    runner: str = "serial"
+    serial_rows: int = 0
+    dask_rows: int = 0
 
 
 def read_manifest(path):
-    """The manifest's rows: dicts with ``row``, ``kind``, ``inputs`` (absolute paths), ``ends``, ``units``.
+    """The manifest's rows: dicts with ``row``, ``kind``, ``inputs`` (absolute paths), ``ends``, ``units`` and
+    ``manifest`` (every column of the row, its text unchanged, in manifest order).
 
-    A row whose kind cannot be told gets ``kind = None`` and an ``error`` (it is
-    recorded as failed, not refused).
+    A row whose kind cannot be told, or that holds more values than the header has columns, gets
+    ``kind = None`` and an ``error`` (it is recorded as failed, not refused).
 
     Raises
     ------
     VesselError
-        The file cannot be read, or it has none of the columns of :data:`KINDS`.
+        The file cannot be read or is not a text CSV, it has none of the columns of :data:`KINDS`,
+        a column name twice, or a column named like a result column (:data:`RESULT_COLUMNS`).
     """
+    return _read_manifest(path)[1]
+
+
+def _read_manifest(path):
+    """The manifest's column names (in order) and its rows (:func:`read_manifest`)."""
     path = Path(path)
     try:
-        text = path.read_text()
+        raw = path.read_bytes()
     except OSError as exc:
         raise VesselError(f"cannot read manifest {path} ({exc.strerror})") from None
-    reader = csv.DictReader(io.StringIO(text))
-    cols = set(reader.fieldnames or ())
+    what = f"manifest {path} is not a CSV text file"
+    try:
+        text = raw.decode("utf-8-sig")  # a spreadsheet's byte-order mark is not part of the first column's name
+    except UnicodeDecodeError as exc:
+        raise VesselError(f"{what} (byte {exc.object[exc.start]:#04x} at offset {exc.start} is not UTF-8 text); "
+                          "give a CSV with a 'mesh' column, or 'rest' and 'deformed', or 'scan_a' and "
+                          "'scan_b'") from None
+    nul = text.find("\x00")
+    if nul >= 0:
+        raise VesselError(f"{what} (it holds a NUL byte at character {nul}); give a CSV with a 'mesh' column, or "
+                          "'rest' and 'deformed', or 'scan_a' and 'scan_b'")
+    try:
+        lines = [r for r in csv.reader(io.StringIO(text)) if r]  # blank lines are skipped, as csv.DictReader does
+    except csv.Error as exc:
+        raise VesselError(f"{what} ({exc}); check its quoting") from None
+    header = lines[0] if lines else []
+    cols = set(header)
     if not any(set(c) <= cols for c in KINDS.values()):
         raise VesselError(f"manifest {path} needs a 'mesh' column, or 'rest' and 'deformed', or 'scan_a' and "
                           f"'scan_b'; it has {sorted(cols)}")
+    twice = sorted({c for c in header if header.count(c) > 1})
+    if twice:
+        raise VesselError(f"manifest {path} names the column{'s' * (len(twice) > 1)} {', '.join(map(repr, twice))} "
+                          "more than once; give each column its own name")
+    clash = [c for c in header if c in RESULT_COLUMNS]
+    if clash:
+        raise VesselError(f"manifest {path} has column{'s' * (len(clash) > 1)} {', '.join(map(repr, clash))}, also "
+                          f"the name{'s' * (len(clash) > 1)} of results the batch writes; rename "
+                          f"{'them' if len(clash) > 1 else 'it'} (e.g. '{clash[0]}_manifest') to keep both")
     rows = []
-    for i, r in enumerate(reader):
-        r = {k: (v or "").strip() for k, v in r.items() if k is not None}
+    for i, values in enumerate(lines[1:]):
+        manifest = dict(zip(header, values + [""] * (len(header) - len(values))))
+        r = {k: v.strip() for k, v in manifest.items()}
         kinds = [k for k, c in KINDS.items() if all(r.get(x) for x in c)]
         row = {"row": i, "kind": kinds[0] if len(kinds) == 1 else None, "ends": r.get("ends") or None,
-               "units": r.get("units") or None, "inputs": [], "error": None}
-        if len(kinds) != 1:
+               "units": r.get("units") or None, "inputs": [], "error": None, "manifest": manifest}
+        if len(values) > len(header):
+            row["kind"] = None
+            row["error"] = (f"row {i} holds {len(values)} values but the header names {len(header)} columns; name "
+                            "every column in the header (a value without a column would be lost)")
+        elif len(kinds) != 1:
             row["error"] = (f"row {i} fills {' and '.join(kinds)}: give one kind per row" if kinds else
                             f"row {i} names no input (mesh, rest/deformed or scan_a/scan_b)")
         else:
             row["inputs"] = [str((path.parent / r[c]).resolve()) for c in KINDS[kinds[0]]]
         rows.append(row)
-    return rows
+    return header, rows
 
 
 def _file_hash(p):
@@ -175,21 +246,17 @@ def _mesh_job(path, ends, units):
     all_ends = vessel_ends(V, F)
     if len(all_ends) > 2 and ends is None:
         tree = fit_vessel_tree(V, F, ends=all_ends)
-        paths = [_path_metrics(p) for p in tree.paths]
-        lengths = np.array([b.length for b in tree.branches])
-        radii = np.array([b.mean_radius for b in tree.branches])
-        top = {"length": float(lengths.sum()), "mean_radius": float(lengths @ radii / lengths.sum()),
-               "min_radius": min(p["min_radius"] for p in paths), "max_radius": max(p["max_radius"] for p in paths)}
+        paths = [_path_metrics(p) for p in tree.paths]  # each from the root, the widest end
+        main = int(np.argmax([p["length"] for p in paths]))  # to the tip farthest along the centre lines
+        total = float(sum(b.length for b in tree.branches))
     else:
         gc = fit_generalized_cylinder(V, F, ends=ends, mesh_ends=all_ends)
-        paths = [_path_metrics(gc)]
-        top = {k: paths[0][k] for k in ("length", "mean_radius", "min_radius", "max_radius")}
-    keys = ("tortuosity", "curvature_mean", "curvature_max", "frenet_torsion_abs_mean", "frenet_torsion_abs_max")
-    agg = {}
-    for k in keys:  # over the paths; None where no path defines it (a straight vessel has no Frenet torsion)
-        vals = [p[k] for p in paths if p[k] is not None]
-        agg[k] = None if not vals else (max(vals) if k.endswith("_max") else float(np.mean(vals)))
-    return {"n_vertices": len(V), "n_ends": len(all_ends), "n_paths": len(paths), **top, **agg}, {"paths": paths}
+        paths, main, total = [_path_metrics(gc)], 0, gc.length
+    m = paths[main]
+    metrics = {"n_vertices": len(V), "n_ends": len(all_ends), "n_paths": len(paths),
+               "main_path_ends": " ".join(map(str, m["ends"])), "total_branch_length": total,
+               **{k: m[k] for k in METRICS["mesh"] if k in m}}
+    return {k: metrics[k] for k in METRICS["mesh"]}, {"paths": paths, "main_path": main}
 
 
 def _torsion_job(rest, deformed, ends, units):
@@ -246,9 +313,9 @@ def run_row(row):
 
 
 def _record(row):
-    """What every row's JSON starts with: the row and how it was computed."""
-    return {"row": row["row"], "kind": row["kind"], "inputs": row["inputs"], "key": row["key"],
-            "ends": row["ends"], "units": row["units"], "version": __version__}
+    """What every row's JSON starts with: the manifest's columns, the row and how it was computed."""
+    return {"manifest": row.get("manifest", {}), "row": row["row"], "kind": row["kind"], "inputs": row["inputs"],
+            "key": row["key"], "ends": row["ends"], "units": row["units"], "version": __version__}
 
 
 def _failure(row, exc_type, message):
@@ -388,20 +455,22 @@ def _dask_client():
 
 def run(manifest, out, client=None, *, workers=None, scheduler=None, timeout=None, retry_errors=False,
         progress=None):
-    """Run a manifest of vessels on Dask and write ``results.csv``, ``results.parquet`` and one JSON per row.
+    """Run a manifest of vessels and write ``results.csv``, ``results.parquet`` and one JSON per row.
 
     Parameters
     ----------
     manifest : str or os.PathLike
         The CSV (see the module notes).
     out : str or os.PathLike
-        Output folder (created; an existing one is resumed).
+        Output folder (created when the first result is written; an existing one is resumed).
     client : distributed.Client, optional
         Run on this client's cluster.
     workers : int, optional
         Without ``client`` and ``scheduler``: worker processes of the LocalCluster started (and
-        closed) here, one thread each (default: the machine's cores); 0 runs the rows serially in
-        this process, without Dask.
+        closed) here, one thread each; 0 runs the rows serially in this process, without Dask.
+        Default: the rows run in this process while the rows left would not pay for a
+        LocalCluster of one worker per core (:func:`dask_pays`), the rest on one (with a
+        ``timeout``: on one from the start, as a row in this process cannot be stopped).
     scheduler : str, optional
         Address of a running Dask scheduler (``tcp://host:8786``) to submit to.
     timeout : float, optional
@@ -421,7 +490,8 @@ def run(manifest, out, client=None, *, workers=None, scheduler=None, timeout=Non
     Raises
     ------
     VesselError
-        An unreadable manifest, or an output folder that would overwrite an input.
+        An unreadable manifest (see :func:`read_manifest`), or an output folder that would
+        overwrite an input.
     """
     t0 = time.perf_counter()
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, (int, np.integer))
@@ -430,57 +500,131 @@ def run(manifest, out, client=None, *, workers=None, scheduler=None, timeout=Non
     if timeout is not None and not float(timeout) > 0:
         raise OptionError(f"timeout must be a positive number of seconds, got {timeout!r}")
     manifest = Path(manifest).resolve()
-    rows = read_manifest(manifest)
+    columns, rows = _read_manifest(manifest)
     out = Path(out)
     rows_dir = out / "rows"
     outputs = {(out / n).resolve() for n in ("results.csv", "results.parquet")}
     if manifest in outputs or any(Path(p) in outputs or Path(p).resolve().parent == rows_dir.resolve()
                                   for r in rows for p in r["inputs"]):
         raise VesselError(f"output folder {out} would overwrite an input; choose another -o")
-    rows_dir.mkdir(parents=True, exist_ok=True)
-    records, todo, seen = {}, [], set()
+    records, todo, first = {}, [], {}
     for row in rows:
         row["key"] = row_key(row)
+        if row["key"] in first:  # the same inputs and options again: one result serves both rows
+            continue
+        first[row["key"]] = row
         f = rows_dir / f"{row['key']}.json"
         if f.is_file():
             rec = json.loads(f.read_text())
             if rec.get("status") == "ok" or not retry_errors:
-                records[row["key"]] = {**rec, "row": row["row"], "inputs": row["inputs"]}  # this manifest's place
+                records[row["key"]] = rec
                 continue
-        if row["key"] not in seen:
-            seen.add(row["key"])
-            todo.append(row)
+        todo.append(row)
     files = []
 
     def save(row, rec):
         records[row["key"]] = rec
+        rows_dir.mkdir(parents=True, exist_ok=True)  # here, not before: a run that computes nothing makes no folder
         write_json(rows_dir / f"{row['key']}.json", rec)
         files.append(str(rows_dir / f"{row['key']}.json"))
 
     bar = _progress_bar(progress, len(todo)) if todo else None
     created = []  # what this call opened, closed again whatever happens
+    on_dask, runner = [], "none"
     try:
-        if todo and workers == 0 and client is None and scheduler is None:
+        if not todo:
+            pass
+        elif client is not None or scheduler or workers or (workers is None and timeout is not None):
+            on_dask, runner = todo, "dask"
+        elif workers == 0:
             _serial(todo, save, bar)
-        elif todo:
+            runner = "serial"
+        else:
+            on_dask = _serial_while_dask_does_not_pay(todo, save, bar)
+            runner = "serial, then dask" if on_dask else "serial"
+        if on_dask:
             if client is None and scheduler:
                 client = _dask_client()(scheduler)
                 created.append(client)
             elif client is None:
                 client, cluster = _cluster(workers or _cores())
                 created += [client, cluster]
-            _on_dask(client, todo, save, bar, timeout)
+            _on_dask(client, on_dask, save, bar, timeout)
     finally:
         for x in created:
             x.close()
         if bar is not None:
             bar.close()
+    for row in first.values():  # a row done before: its JSON describes it in this manifest
+        rec = records[row["key"]]
+        now = {"manifest": row["manifest"], "row": row["row"], "inputs": row["inputs"]}
+        if any(rec.get(k) != v for k, v in now.items()) or list(rec["manifest"]) != list(row["manifest"]):
+            save(row, {**now, **{k: v for k, v in rec.items() if k not in now}})
     table = [_result_row(row, records[row["key"]]) for row in rows]
-    files += _write_results(out, table)
+    out.mkdir(parents=True, exist_ok=True)
+    files += _write_results(out, columns, table)
     failed = sum(r["status"] != "ok" for r in table)
-    log.info("batch: %d rows, %d computed, %d failed", len(rows), len(todo), failed)
+    log.info("batch: %d rows, %d computed (%s), %d failed", len(rows), len(todo), runner, failed)
     return BatchReport(rows=table, computed=len(todo), skipped=len(rows) - len(todo), failed=failed, files=files,
-                       time_s=time.perf_counter() - t0)
+                       time_s=time.perf_counter() - t0, runner=runner, serial_rows=len(todo) - len(on_dask),
+                       dask_rows=len(on_dask))
+
+
+def dask_pays(rows_left, row_s, cores):
+    """Whether a local Dask cluster would finish the rows left sooner than this process.
+
+    In this process the rows take ``rows_left * row_s`` seconds; on a LocalCluster of
+    ``w = min(cores, rows_left)`` worker processes about ``BATCH_DASK_STARTUP_S`` (importing Dask,
+    starting the cluster, the workers' imports, closing it) plus ``rows_left * (row_s + BATCH_DASK_ROW_S)``
+    (each row's scheduling) divided by the cluster's speed-up ``BATCH_DASK_EFFICIENCY * w``: the
+    constants of :mod:`vesselgp.tolerances`, measured by ``scripts/bench_batch.py --crossover``. On 2
+    cores Dask pays above about 5.1 s of rows (13 rows of 0.4 s; 1 row of 7 s never: it cannot be split).
+
+    Parameters
+    ----------
+    rows_left : int
+        Rows still to compute.
+    row_s : float
+        Seconds a row takes in this process (the mean of the rows computed so far).
+    cores : int
+        Cores of this machine (the cluster's workers).
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> dask_pays(1, 100.0, 8), dask_pays(8, 0.01, 2), dask_pays(8, 60.0, 2), dask_pays(8, 60.0, 1)
+    (False, False, True, False)
+    """
+    w = min(int(cores), int(rows_left))
+    if w < 2:
+        return False
+    on_dask = tol.BATCH_DASK_STARTUP_S + rows_left * (row_s + tol.BATCH_DASK_ROW_S) / (tol.BATCH_DASK_EFFICIENCY * w)
+    return on_dask < rows_left * row_s
+
+
+def _serial_while_dask_does_not_pay(todo, save, bar):
+    """Compute rows here, one after another, until the rest would pay for a local cluster; returns the rest."""
+    cores, spent = _cores(), 0.0
+    if cores > 1 and len(todo) > 1 and importlib.util.find_spec("distributed") is None:
+        log.info("batch: dask.distributed is not installed: every row runs here (pip install vesselgp[batch])")
+        cores = 1
+    for i, row in enumerate(todo):
+        if i and dask_pays(len(todo) - i, spent / i, cores):
+            log.info("batch: %d rows computed here (%.2f s each); the %d left go to a local Dask cluster of %d "
+                     "workers", i, spent / i, len(todo) - i, min(cores, len(todo) - i))
+            return todo[i:]
+        t = time.perf_counter()
+        save(row, run_row(row))
+        spent += time.perf_counter() - t
+        if bar is not None:
+            bar.update(1)
+    log.info("batch: %d rows computed here, one after another (%.2f s each): a local Dask cluster (%d cores) "
+             "would not have paid for its start-up (about %.1f s)", len(todo), spent / len(todo), cores,
+             tol.BATCH_DASK_STARTUP_S)
+    return []
 
 
 def _cores():
@@ -488,16 +632,18 @@ def _cores():
 
 
 def _result_row(row, rec):
-    """One line of results.csv: the row's place in this manifest, its status and its metrics."""
+    """One line of results.csv: the manifest's columns, the row's place in this manifest, its status and its
+    metrics."""
     base = {"row": row["row"], "kind": row["kind"] or "", "inputs": ";".join(row["inputs"]), "key": row["key"],
             "status": rec["status"], "error_type": rec["error_type"], "error": rec["error"],
             "time_s": rec["time_s"]}
-    return {**base, **rec.get("metrics", {})}
+    return {**row["manifest"], **base, **rec.get("metrics", {})}
 
 
-def _write_results(out, table):
-    """results.csv (and results.parquet when pyarrow is installed), atomically."""
-    cols = list(BASE_COLUMNS)
+def _write_results(out, columns, table):
+    """results.csv (and results.parquet when pyarrow is installed), atomically: the manifest's ``columns``
+    first."""
+    cols = list(columns) + list(BASE_COLUMNS)
     for r in table:
         cols += [k for k in r if k not in cols]
 

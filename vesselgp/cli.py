@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import re
 import sys
 import time
 from pathlib import Path
@@ -174,11 +175,18 @@ def _files_text(out):
     return "\n".join(f"  {f}" for f in out.files)
 
 
+def _output(args, inputs, **kwargs):
+    """The command's :class:`OutputFolder`, kept on ``args``: :func:`main` removes it again, if it created it
+    and it is still empty, when the command is refused."""
+    args.output_folder = OutputFolder(args.output, inputs, args.overwrite, **kwargs)
+    return args.output_folder
+
+
 # ----------------------------------------------------------------------------- subcommands
 
 
 def cmd_fit(args):
-    out = OutputFolder(args.output, [args.mesh], args.overwrite)
+    out = _output(args, [args.mesh])
     gc, d = pipeline.run_fit(args.mesh, out, ends=args.ends, n_nodes=args.nodes, axis_format=args.axis_format,
                              shade=args.shade, units=args.units, scale=args.scale, render=not args.no_png)
     if "paths" in d:  # a branching mesh, fitted as a tree
@@ -203,7 +211,7 @@ def cmd_fit(args):
 
 
 def cmd_torsion(args):
-    out = OutputFolder(args.output, [args.rest, args.deformed], args.overwrite)
+    out = _output(args, [args.rest, args.deformed])
     prof, d = pipeline.run_torsion(args.rest, args.deformed, out, smoothing=args.smoothing, ends=args.ends,
                                    units=args.units, scale=args.scale, render=not args.no_png)
     summary = {"command": "torsion", **{k: d[k] for k in ("energy", "total_twist_deg", "twist_per_length_deg",
@@ -259,7 +267,7 @@ def cmd_join(args):
                                                           args.target_normal),
         other=args.other, other_end=None if args.other_end is None else _ids(args.other_end, "other-end"),
         units=args.units, scale=args.scale)
-    out = OutputFolder(args.output, inp["inputs"], args.overwrite)
+    out = _output(args, inp["inputs"])
     out.check(pipeline.JOIN_FILES)
     mn = inp["moving_normal"] if args.moving_normal is None else args.moving_normal
     r = pipeline.run_join(out.dir, inp["V"], inp["F"], inp["fixed"], inp["moving"], inp["target"],
@@ -286,7 +294,7 @@ def _cmd_join_vessels(args):
         args.vessel, args.onto, args.end, other_end, hold=None if args.hold is None else _hold(args.hold),
         method=args.method, max_stretch=args.max_stretch, moving_normal=args.moving_normal,
         target_normal=args.target_normal, units=args.units, scale=args.scale)
-    out = OutputFolder(args.output, inp["inputs"], args.overwrite)
+    out = _output(args, inp["inputs"])
     out.check(pipeline.JOIN_FILES)
     r = pipeline.run_join_vessels(out.dir, inp["join"], name=Path(args.vessel).stem, n_curve=args.n_curve,
                                   curve_range_deg=args.range, large_deg=args.large, progress=_progress(args),
@@ -298,7 +306,7 @@ def _cmd_join_vessels(args):
 def cmd_twist(args):
     tw = pipeline.twist_scans(args.scan_a, args.scan_b, ends_a=args.ends_a, ends_b=args.ends_b, units=args.units,
                               scale=args.scale)
-    out = OutputFolder(args.output, tw["inputs"], args.overwrite)
+    out = _output(args, tw["inputs"])
     out.check(pipeline.TWIST_FILES)
     d = pipeline.write_twist(out, tw, render=not args.no_png)
     summary = {k: d[k] for k in ("command", "n_landmarks", "ends_a", "ends_b", "segment_twist_deg", "stretch",
@@ -314,17 +322,19 @@ def cmd_batch(args):
     rep = batch.run(args.manifest, args.output, workers=args.workers, scheduler=args.scheduler,
                     timeout=args.timeout, retry_errors=args.retry_errors, progress=_progress(args) or None)
     summary = {"command": "batch", "rows": len(rep.rows), "computed": rep.computed, "skipped": rep.skipped,
-               "failed": rep.failed, "time_s": rep.time_s,
-               "results": [f for f in rep.files if not f.endswith(".json")]}
+               "failed": rep.failed, "time_s": rep.time_s, "runner": rep.runner, "serial_rows": rep.serial_rows,
+               "dask_rows": rep.dask_rows, "results": [f for f in rep.files if not f.endswith(".json")]}
+    how = {"serial": " serially, in this process", "dask": " on Dask",
+           "serial, then dask": f": {rep.serial_rows} in this process, then {rep.dask_rows} on a local Dask cluster"}
     fails = "\n".join(f"  row {r['row']}: {r['error_type']}: {r['error']}" for r in rep.rows if r["status"] != "ok")
-    _emit(args, summary, f"{len(rep.rows)} rows: {rep.computed} computed, {rep.skipped} already done, "
-                         f"{rep.failed} failed, {rep.time_s:.1f} s" + (f"\n{fails}" if fails else "")
+    _emit(args, summary, f"{len(rep.rows)} rows: {rep.computed} computed{how.get(rep.runner, '')}, {rep.skipped} "
+                         f"already done, {rep.failed} failed, {rep.time_s:.1f} s" + (f"\n{fails}" if fails else "")
                          + "\n" + "\n".join(f"  {f}" for f in summary["results"]))
     return 0
 
 
 def cmd_clean(args):
-    out = OutputFolder(args.output, [args.mesh], args.overwrite)
+    out = _output(args, [args.mesh])
     rep, d = pipeline.run_clean(args.mesh, out, fmt=args.format, smooth=args.smooth, units=args.units,
                                 scale=args.scale)
     _emit(args, {"command": "clean", **d, "files": out.files}, rep.summary() + "\n" + _files_text(out))
@@ -332,7 +342,7 @@ def cmd_clean(args):
 
 
 def cmd_ends(args):
-    out = OutputFolder(args.output, [args.mesh], args.overwrite)
+    out = _output(args, [args.mesh], rerun=("ends.json", "ends"))  # a listing: a re-run replaces its own
     d = pipeline.run_ends(args.mesh, out, units=args.units, scale=args.scale)
     _emit(args, {**d, "files": out.files},
           f"{d['n_ends']} ends of {args.mesh} ({_lengths_in(d)}; --ends I J takes these indices)\n"
@@ -341,7 +351,7 @@ def cmd_ends(args):
 
 
 def cmd_generate(args):
-    out = OutputFolder(args.output, [], args.overwrite)
+    out = _output(args, [])
     if args.paper_cases:
         info = pipeline.run_paper_cases(out, resolution=args.resolution, seed=args.seed, noise=args.noise,
                                         pre_rotation=np.radians(args.pre_rotation))
@@ -360,7 +370,7 @@ def cmd_generate(args):
 
 
 def cmd_demo(args):
-    out = OutputFolder(args.output, [], args.overwrite)
+    out = _output(args, [])
     t0 = time.perf_counter()
     rep = pipeline.run_demo(out.dir, resolution=args.resolution, n_curve=args.n_curve, progress=_progress(args),
                             render=not args.no_png, pre_rotation=np.radians(args.pre_rotation))
@@ -530,11 +540,13 @@ def _add_batch(sub, fmt):
                    help="output folder (default: ./%(default)s); an existing one is resumed")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--workers", type=int, metavar="N",
-                   help="worker processes of the local Dask cluster (default: the machine's cores; 0: serial, "
-                        "without Dask)")
+                   help="run on a local Dask cluster of N worker processes (0: serially, without Dask; default: "
+                        "serially while the rows left would not pay for a cluster's start-up, the rest on one "
+                        "worker per core)")
     g.add_argument("--scheduler", metavar="ADDRESS", help="submit to a running Dask scheduler, e.g. tcp://host:8786")
     p.add_argument("--timeout", type=_positive_float, metavar="S",
-                   help="seconds a row may run on a worker before it is recorded as failed")
+                   help="seconds a row may run on a worker before it is recorded as failed (runs every row "
+                        "on Dask unless --workers 0)")
     p.add_argument("--retry-errors", action="store_true", help="run rows that failed before again")
     _reporting(p)
     p.set_defaults(func=cmd_batch)
@@ -632,6 +644,43 @@ def _one_line(msg):
     return " ".join(str(msg).split())
 
 
+#: The library's keywords that each command's options set. The library's messages name a keyword as
+#: ``name=value``, ``name=(i, j)``, ``name=`` or, when it holds an underscore, by its name; under the
+#: command they name the option instead (:func:`_cli_message`).
+OPTION_OF_KEYWORD = {
+    "fit": {"ends": "--ends", "n_nodes": "--nodes"},
+    "torsion": {"ends": "--ends"},
+    "join": {"end": "--end", "other_end": "--other-end", "hold": "--hold", "max_stretch": "--max-stretch",
+             "moving_normal": "--moving-normal", "target_normal": "--target-normal"},
+    "twist": {"ends_a": "--ends-a", "ends_b": "--ends-b"},
+    "batch": {"workers": "--workers"},
+}
+
+
+def _cli_message(command, message):
+    """``message`` with the library keywords of ``command``'s options written as the options.
+
+    Examples
+    --------
+    >>> _cli_message("torsion", "mesh has 3 open ends; pass ends=(i, j) to choose (ends: ...); ends=(0, 7) is invalid")
+    'mesh has 3 open ends; pass --ends I J to choose (ends: ...); --ends 0 7 is invalid'
+    >>> _cli_message("join", "stretched 1.40x (max_stretch 1.3); hold less (hold=) or raise max_stretch; end=2 is not")
+    'stretched 1.40x (--max-stretch 1.3); hold less (--hold) or raise --max-stretch; --end 2 is not'
+    """
+    def pair(flag):
+        return lambda m: " ".join([flag, *(x.strip().upper() if x.strip() in ("i", "j") else x.strip()
+                                           for x in m.group(1).split(","))])
+
+    for kw, flag in OPTION_OF_KEYWORD.get(command, {}).items():
+        k = re.escape(kw)
+        message = re.sub(rf"\b{k}=\(([^()]*)\)", pair(flag), message)  # ends=(i, j) -> --ends I J
+        message = re.sub(rf"\b{k}=(?=[-\w.'\"])", flag + " ", message)  # hold=1.5 -> --hold 1.5
+        message = re.sub(rf"\b{k}=", flag, message)  # (hold=) -> (--hold)
+        if "_" in kw:
+            message = re.sub(rf"\b{k}\b", flag, message)  # max_stretch -> --max-stretch
+    return message
+
+
 def main(argv=None):
     """Entry point of the ``vesselgp`` command; returns the exit code.
 
@@ -653,11 +702,14 @@ def main(argv=None):
     logging.getLogger("vesselgp").setLevel(level)
     for h in logging.getLogger().handlers:  # records propagated from other libraries' loggers (Dask's) too
         h.setLevel(level)
+    done = False
     try:
         with pipeline.library_scale_warnings_replaced():
-            return int(args.func(args) or 0)
+            code = int(args.func(args) or 0)
+        done = True
+        return code
     except VesselError as exc:
-        print(f"vesselgp: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"vesselgp: error: {_one_line(_cli_message(args.command, str(exc)))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("vesselgp: interrupted", file=sys.stderr)
@@ -665,6 +717,9 @@ def main(argv=None):
     except OSError as exc:
         print(f"vesselgp: error: {_one_line(exc)}", file=sys.stderr)
         return 1
+    finally:
+        if not done and getattr(args, "output_folder", None) is not None:
+            args.output_folder.remove_if_empty()  # a refused run leaves no empty folder behind
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -54,7 +54,11 @@ class OptionError(VesselError):
     """A keyword option has a value the function does not know (e.g. a method name)."""
 
 
-class TreeDependencyError(OptionError):
+class DependencyError(VesselError):
+    """An optional package a feature needs is not installed; the message names the ``pip install``."""
+
+
+class TreeDependencyError(OptionError, DependencyError):
     """scikit-image, needed to triangulate synthetic trees, is not installed (``pip install vesselgp[trees]``)."""
 
 
@@ -71,5 +75,6 @@ __all__ = [
     "ImplausibleJoinError",
     "OptionError",
     "DecimationError",
+    "DependencyError",
     "TreeDependencyError",
 ]

@@ -47,6 +47,7 @@ import scipy.sparse.linalg as spla
 
 from . import tolerances as tol
 from ._arrays import thinned
+from ._interop import polylines_to_pyvista
 from ._validate import as_vector
 from .axis import (Axis, AxisStack, circle_fit_solve, circle_fit_sums, hat, interp_frames,
                    local_coords, solve_banded_spd)
@@ -151,6 +152,28 @@ class GeneralizedCylinder:
     def mean_radius(self):
         """Length-weighted mean radius."""
         return float(np.trapezoid(self.radii, self.s))
+
+    def to_pyvista(self):
+        """The axis as a ``pyvista.PolyData`` polyline (needs pyvista: ``pip install "vesselgp[formats]"``).
+
+        Returns
+        -------
+        pyvista.PolyData
+            The K axis nodes ``centers`` as one line cell, with point data ``s`` (normalised arc
+            length), ``abscissa`` (arc length in mesh units), ``radius`` and the frame's ``T``,
+            ``U``, ``V`` (3-vectors); ``poly.tube(scalars="radius", absolute=True)`` draws the
+            fitted cylinder.
+
+        Raises
+        ------
+        DependencyError
+            pyvista is not installed.
+        """
+        fr = self.frames
+        return polylines_to_pyvista(
+            [self.centers], {"s": self.s, "abscissa": self.s * self.length, "radius": self.radii,
+                             "T": fr[:, 0], "U": fr[:, 1], "V": fr[:, 2]},
+            what="GeneralizedCylinder.to_pyvista()")
 
 
 # ----------------------------------------------------------------------------- radius and weights
@@ -395,9 +418,9 @@ def fit_generalized_cylinder(
 
     Parameters
     ----------
-    V : (n, 3) float64 or PreparedMesh
-        Vertex positions, or a :class:`vesselgp.PreparedMesh` (checked once for several fits;
-        ``F`` and ``mesh_ends`` are then left out).
+    V : (n, 3) float64, PreparedMesh or mesh object
+        Vertex positions, a :class:`vesselgp.PreparedMesh` (checked once for several fits; ``F`` and
+        ``mesh_ends`` left out) or a mesh object (``F`` left out; :func:`vesselgp.as_mesh`).
     F : (m, 3) int64
         Triangles.
     ends : None, (int, int) or (VesselEnd, VesselEnd), optional

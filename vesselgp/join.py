@@ -104,6 +104,9 @@ class JoinResult:
         Held vertex ids and the joined end ring, in ``V``.
     kept : (n,) int64 or None
         For :func:`vesselgp.join_vessels`: the id in the input mesh of each row of ``V``.
+    placement : (4, 4) float64 or None
+        For :func:`vesselgp.join_vessels` with ``place``: the rigid move ``[R t; 0 1]`` made to the
+        moving vessel before the join (``V`` is deformed from the moved vessel), else None.
     """
 
     angle: float
@@ -131,6 +134,7 @@ class JoinResult:
     fixed: np.ndarray | None = field(default=None, repr=False)
     moving: np.ndarray | None = field(default=None, repr=False)
     kept: np.ndarray | None = field(default=None, repr=False)
+    placement: np.ndarray | None = field(default=None, repr=False)
 
 
 class JoinProblem:

@@ -39,9 +39,9 @@ from dataclasses import replace
 import numpy as np
 
 from . import tolerances as tol
-from ._validate import as_mesh, as_vector
+from ._validate import as_mesh, as_vector, mesh_arguments
 from .deform import Frame
-from .errors import EndsError, ImplausibleJoinError, InvalidMeshError
+from .errors import EndsError, ImplausibleJoinError, InvalidMeshError, OptionError
 from .fit import fit_generalized_cylinder
 from .tree import fit_vessel_tree
 from .join import JoinProblem, minimize_torsion
@@ -82,8 +82,7 @@ def default_normal(direction):
 def _pick(ends, i, what):
     """``ends[i]``, or an :class:`EndsError` that lists the ends."""
     if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < len(ends):
-        raise EndsError(f"{what} must be an end index in 0..{len(ends) - 1}, got {i!r} "
-                        f"(ends: {end_listing(ends)})")
+        raise EndsError(f"{what}={i!r} is not an end index in 0..{len(ends) - 1} (ends: {end_listing(ends)})")
     return ends[int(i)]
 
 
@@ -105,22 +104,22 @@ def _held(gc, hold, kept, n_user):
     if hold is None or np.ndim(hold) == 0:
         f = tol.JOIN_HOLD_FRACTION if hold is None else float(hold)
         if not 0.0 < f < 1.0:
-            raise EndsError(f"hold as an arc-length fraction must be in (0, 1), got {hold!r}")
+            raise EndsError(f"hold={hold!r} is not an arc-length fraction in (0, 1); give one like 0.2, or vertex ids")
         fixed = np.flatnonzero(gc.vertex_s <= f)
         if len(fixed) == 0:
-            raise EndsError(f"no vertex lies within {f:g} of the axis length of the held end; give a larger hold")
+            raise EndsError(f"no vertex lies within {f:g} of the axis length of the held end; give a larger hold=")
         return fixed
     ids = np.asarray(hold)
     if ids.dtype == bool or not np.issubdtype(ids.dtype, np.integer) or ids.ndim != 1:
         raise EndsError("hold must be None, an arc-length fraction in (0, 1) or a 1-D array of vertex ids")
     if ids.size == 0 or ids.min() < 0 or ids.max() >= n_user:
-        raise EndsError(f"hold vertex ids must be in 0..{n_user - 1} (the moving vessel's vertices)")
+        raise EndsError(f"hold= vertex ids must be in 0..{n_user - 1} (the moving vessel's vertices)")
     new = np.full(n_user, -1, np.int64)
     new[kept] = np.arange(len(kept))
     out = new[ids]
     if np.any(out < 0):
-        raise EndsError(f"{int(np.sum(out < 0))} hold vertices belong to the cap that was removed to open the "
-                        "joined end; hold vertices of the vessel's other end")
+        raise EndsError(f"{int(np.sum(out < 0))} of the hold= vertices belong to the cap that was removed to open "
+                        "the joined end; hold vertices of the vessel's other end")
     return np.unique(out)
 
 
@@ -148,6 +147,38 @@ def _plausible(problem, max_stretch):
         )
     if st > tol.JOIN_STRETCH_WARN:
         log.warning("the join stretches the free part of the vessel %.2fx along its axis", st)
+
+
+def _placed(V, ends, end, other, gap):
+    """``V`` moved rigidly so that end ``end`` faces ``other`` on its axis, ``gap`` in front of it.
+
+    The moving end's outward direction is turned by the least rotation onto minus the other end's
+    (they face each other) and its centre moved to the other end's centre plus ``gap`` times the
+    other end's outward direction (the centres on one line, the other end's axis).
+
+    Returns
+    -------
+    V : (n, 3) float64
+        The moved vertices (a new array).
+    ends : tuple of VesselEnd
+        The ends moved with them.
+    M : (4, 4) float64
+        The rigid move, ``[R t; 0 1]``: a point ``x`` goes to ``R x + t``.
+    """
+    gap = float(gap)
+    if not (np.isfinite(gap) and gap >= 0.0):
+        raise OptionError(f"place must be a gap of zero or more (mesh units) between the two ends, got {gap!r}")
+    e = ends[end]
+    d_o = np.asarray(other.direction, float) / np.linalg.norm(other.direction)
+    R = minimal_rotation(np.asarray(e.direction, float) / np.linalg.norm(e.direction), -d_o).as_matrix()
+    t = np.asarray(other.center, float) + gap * d_o - R @ np.asarray(e.center, float)
+    M = np.eye(4)
+    M[:3, :3], M[:3, 3] = R, t
+    moved = tuple(replace(x, center=R @ x.center + t, direction=R @ x.direction) for x in ends)
+    log.info("join_vessels: the moving vessel placed %.3g in front of the other end: its end moved %.3g, turned "
+             "%.1f deg", gap, float(np.linalg.norm(moved[end].center - e.center)),
+             float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)))))
+    return V @ R.T + t, moved, M
 
 
 def _cropped(gc, s0):
@@ -205,9 +236,11 @@ class VesselJoin:
         Seconds the set-up took (ends, opening, fit, factorisations).
     """
 
-    def __init__(self, V, F, end, V_other, F_other, other_end, *, hold=None, method="rod_arap",
-                 max_stretch=None, moving_normal=None, target_normal=None):
+    def __init__(self, V, F=None, end=None, V_other=None, F_other=None, other_end=None, *, hold=None,
+                 method="rod_arap", max_stretch=None, moving_normal=None, target_normal=None, place=None):
         t0 = time.perf_counter()
+        (V, F), end, (V_other, F_other), other_end = mesh_arguments(
+            (V, F, end, V_other, F_other, other_end), ("mesh", "end", "mesh", "end"), "join_vessels")
         V, F = as_mesh(V, F)
         Vo, Fo = as_mesh(V_other, F_other)
         max_stretch = tol.JOIN_MAX_STRETCH if max_stretch is None else float(max_stretch)
@@ -220,6 +253,9 @@ class VesselJoin:
                             "and one to join (ends: " + end_listing(ends) + ")")
         _pick(ends, end, "end")
         _pick(ends_o, other_end, "other_end")
+        self.placement = None  # the rigid move of the moving vessel (place=), (4, 4)
+        if place is not None:
+            V, ends, self.placement = _placed(V, ends, end, ends_o[other_end], place)
         W, G, kept, new_ends, j = _opened(V, F, ends, end, "end")
         Wo, Go, _, ends_o2, jo = _opened(Vo, Fo, ends_o, other_end, "other_end")
         e_move, e_other = new_ends[j], ends_o2[jo]
@@ -301,23 +337,28 @@ class VesselJoin:
         log.info("join_vessels: angle %.2f deg from the anchors, roll %.2f deg, axial stretch %.3f, edge "
                  "stretch %.3f", np.degrees(res.angle), np.degrees(res.roll), res.axial_stretch,
                  res.max_edge_stretch)
-        return replace(res, joined_V=Vj, joined_F=Fj, seam=p.moving.copy(), kept=self.kept)
+        return replace(res, joined_V=Vj, joined_F=Fj, seam=p.moving.copy(), kept=self.kept, placement=self.placement)
 
 
-def join_vessels(V, F, end, V_other, F_other, other_end, *, hold=None, method="rod_arap", max_stretch=None,
-                 moving_normal=None, target_normal=None):
+def join_vessels(V, F=None, end=None, V_other=None, F_other=None, other_end=None, *, hold=None,
+                 method="rod_arap", max_stretch=None, moving_normal=None, target_normal=None, place=None):
     """Join end ``end`` of one vessel onto end ``other_end`` of another with the least torsion.
+
+    Each vessel is its arrays ``V, F`` or one mesh object (``trimesh.Trimesh``,
+    ``pyvista.PolyData``, ``meshio.Mesh``, :class:`vesselgp.PreparedMesh`;
+    :func:`vesselgp.as_mesh`): ``join_vessels(mesh, 1, other_mesh, 0)`` reads as
+    ``join_vessels(V, F, 1, V_other, F_other, 0)``.
 
     Parameters
     ----------
-    V : (n, 3) float64
+    V : (n, 3) float64, or a mesh object
         The vessel that is deformed: a tube with two ends, or a tree (then the
         path from its widest other end to ``end`` is fitted and, by default,
         everything but the moving end's own branch past its junction zone is held).
     F : (m, 3) int64
     end : int
         Index into ``vessel_ends(V, F)`` of the end that moves; the other end is held.
-    V_other : (n2, 3) float64
+    V_other : (n2, 3) float64, or a mesh object
         The vessel joined to (it does not move; it may be a tree).
     F_other : (m2, 3) int64
     other_end : int
@@ -337,6 +378,11 @@ def join_vessels(V, F, end, V_other, F_other, other_end, *, hold=None, method="r
     target_normal : (3,) float64, optional
         Where it lands at angle 0 (default: ``moving_normal`` turned by the least rotation
         from the moving end's direction onto the target tangent).
+    place : float, optional
+        Move the moving vessel rigidly first, so that its joined end faces the other end on the
+        other end's axis, this gap (mesh units, >= 0) in front of it: for two vessels in unrelated
+        coordinates (two scans). The moving end's direction is turned by the least rotation onto
+        minus the other end's. Default: no move (the vessels stay where they are).
 
     See Also
     --------
@@ -350,11 +396,15 @@ def join_vessels(V, F, end, V_other, F_other, other_end, *, hold=None, method="r
         and the joined ring in it, ``joined_V``/``joined_F`` the stitched mesh
         (moving vessel first) and ``seam`` the ring where they meet. ``angle``
         is measured from the anchors; ``roll`` from the twist-free placement.
+        ``placement`` is the (4, 4) rigid move made by ``place`` (None without it); ``V`` and
+        ``joined_V`` are in the moved position.
 
     Raises
     ------
     EndsError
         Bad end indices or a bad ``hold``.
+    OptionError
+        A negative or non-finite ``place``.
     ImplausibleJoinError
         The target needs too much stretch or compression, or too tight a bend.
     InvalidMeshError
@@ -370,4 +420,4 @@ def join_vessels(V, F, end, V_other, F_other, other_end, *, hold=None, method="r
     """
     return VesselJoin(V, F, end, V_other, F_other, other_end, hold=hold, method=method,
                       max_stretch=max_stretch, moving_normal=moving_normal,
-                      target_normal=target_normal).solve()
+                      target_normal=target_normal, place=place).solve()

@@ -19,6 +19,7 @@ are read through :func:`read_mesh_in`, which converts them into millimetres
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
 import math
 import os
@@ -35,12 +36,13 @@ from .deform import Frame
 from .errors import MismatchError, VesselError
 from .fit import fit_generalized_cylinder
 from .tree import fit_vessel_tree
-from .io import (read_case, read_mesh, to_json, write_case, write_csv, write_json, write_mesh, write_polylines,
-                 write_polyline)
+from .io import (read_case, read_mesh, to_json, write_case, write_centerlines, write_csv, write_json, write_mesh)
 from .join import JoinProblem, minimize_torsion
 from .join_vessels import VesselJoin
 from .mesh import clean_mesh, format_point, mesh_scale, stitch, vessel_ends
 from .mesh.scale import UNIT_NAMES, units_factor
+from .network import centerline_network
+from .html_report import ViewMesh, write_report_html
 from .rotations import wrap_angle
 from .synthetic import deform_synthetic, paper_case, synthetic_vessel
 from .torsion import TorsionMeter
@@ -92,12 +94,20 @@ REPORT_FIELDS = {
 class OutputFolder:
     """An output folder that must be new or empty (unless ``overwrite``) and never holds an input.
 
+    A run that is refused leaves no empty folder behind: :meth:`remove_if_empty` (called when a
+    ``with OutputFolder(...)`` block ends in an exception) removes the folders this object created
+    while they hold nothing; a folder that existed before is never removed.
+
     Parameters
     ----------
     folder : str or os.PathLike
     inputs : sequence of path, optional
         Files that must never be written over.
     overwrite : bool
+    rerun : (str, str), optional
+        ``(name, command)`` of a command whose output is one JSON listing (``("ends.json", "ends")``):
+        a folder that holds only that file, written by the same command (its ``"command"`` field),
+        is the command's earlier output and is written over without ``overwrite``.
 
     Attributes
     ----------
@@ -111,18 +121,42 @@ class OutputFolder:
         The folder is a file, is not empty (without ``overwrite``) or is an input.
     """
 
-    def __init__(self, folder, inputs=(), overwrite=False):
+    def __init__(self, folder, inputs=(), overwrite=False, *, rerun=None):
         self.dir = Path(folder)
         self.inputs = [Path(p) for p in inputs if p is not None]
         if self.dir.exists() and not self.dir.is_dir():
             raise VesselError(f"output {self.dir} exists and is not a folder; choose another -o")
-        if self.dir.is_dir() and any(self.dir.iterdir()) and not overwrite:
+        if self.dir.is_dir() and not overwrite and not _earlier_run(self.dir, rerun):
             raise VesselError(f"output folder {self.dir} exists and is not empty; pass --overwrite or choose another -o")
         for p in self.inputs:
             if p.exists() and p.resolve() == self.dir.resolve():
                 raise VesselError(f"output folder {self.dir} is an input; choose another -o")
-        self.dir.mkdir(parents=True, exist_ok=True)
+        self._made = []  # folders this object created, outermost first
+        self._mkdir(self.dir)
         self.files = []
+
+    def _mkdir(self, folder):
+        missing = [d for d in (folder, *folder.parents) if not d.exists()][::-1]
+        folder.mkdir(parents=True, exist_ok=True)
+        self._made += [d for d in missing if d.is_dir()]
+
+    def remove_if_empty(self):
+        """Remove the folders this object created that hold nothing (innermost first); returns them."""
+        gone = []
+        for d in reversed(self._made):
+            with contextlib.suppress(OSError):  # not empty (or gone): it stays
+                d.rmdir()
+                gone.append(d)
+        self._made = [d for d in self._made if d not in gone]
+        return gone
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is not None:
+            self.remove_if_empty()
+        return False
 
     def check(self, names):
         """Refuse, before anything is written, names that are inputs."""
@@ -139,9 +173,24 @@ class OutputFolder:
     def __call__(self, name):
         """Path of ``name`` in the folder (created on first use), recorded in :attr:`files`."""
         p = self._path(name)
-        p.parent.mkdir(parents=True, exist_ok=True)
+        self._mkdir(p.parent)
         self.files.append(str(p))
         return p
+
+
+def _earlier_run(folder, rerun):
+    """Whether ``folder`` is empty, or holds only the JSON listing ``rerun = (name, command)`` written by that
+    command (:class:`OutputFolder`)."""
+    held = list(folder.iterdir())
+    if not held:
+        return True
+    if rerun is None or len(held) != 1 or held[0].name != rerun[0] or not held[0].is_file():
+        return False
+    try:
+        d = json.loads(held[0].read_bytes())
+    except (OSError, ValueError):  # unreadable or not JSON: not ours
+        return False
+    return isinstance(d, dict) and d.get("command") == rerun[1]
 
 
 # ----------------------------------------------------------------------------- units
@@ -344,24 +393,46 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
     cols["radius"] = gc.radii
     cols.update({f"{n}{c}": fr[:, k, i] for k, n in enumerate("TUV") for i, c in enumerate("xyz")})
     write_csv(out("axis.csv"), cols)
-    pdata = {"s": gc.s, "radius": gc.radii, "T": fr[:, 0], "U": fr[:, 1], "V": fr[:, 2]}
-    for ext in (("vtp", "ply") if axis_format == "both" else (axis_format,)):
-        write_polyline(out(f"axis.{ext}"), gc.centers, pdata)
+    _write_centerlines(out, "axis", centerline_network(gc, V, F), axis_format)
     if shade != "none":
+        theta, dist = np.degrees(gc.vertex_theta), np.hypot(gc.vertex_local[:, 1], gc.vertex_local[:, 2])
         if shade == "theta":
-            val, lo, hi, cmap = np.degrees(gc.vertex_theta), -180.0, 180.0, "twilight"
+            val, lo, hi, cmap = theta, -180.0, 180.0, "twilight"
             label = "angle \u03b8 about the axis (deg)"
         else:
-            val = np.hypot(gc.vertex_local[:, 1], gc.vertex_local[:, 2])
+            val = dist
             lo, hi, cmap, label = float(val.min()), float(val.max()), "viridis", "distance to the axis (mm)"
-        write_mesh(out(f"mesh_{shade}.ply"), V, F, vertex_colors=torsion_colors(val, lo, hi, cmap),
-                   vertex_scalars={shade: val, "s": gc.vertex_s})
+        others = {"s": gc.vertex_s, "theta": theta, "radius": dist}
+        _write_shaded(out, f"mesh_{shade}", V, F, torsion_colors(val, lo, hi, cmap),
+                      {shade: val, **{k: v for k, v in others.items() if k != shade}})
         if render:
             render_mesh(out(f"mesh_{shade}.png"), V, F, val, vmin=lo, vmax=hi, cmap=cmap, cbar_label=label,
-                        title=f"{Path(mesh).name}: generalized cylinder, length {gc.length:.4g}, "
-                              f"mean radius {gc.mean_radius:.3g}",
+                        title=f"{Path(mesh).name}: generalized cylinder, length {gc.length:.4g} mm, "
+                              f"mean radius {gc.mean_radius:.3g} mm",
                         period=360.0 if shade == "theta" else None, lines=[gc.dense_points])
+    if render:
+        dist = np.hypot(gc.vertex_local[:, 1], gc.vertex_local[:, 2])
+        write_report_html(out("report.html"), f"{Path(mesh).name}: generalized cylinder",
+                          [ViewMesh(V, F, dist, label="distance to the axis (mm)")], lines=[gc.dense_points],
+                          labels=[(gc.centers[0], f"end {gc.ends[0]}"), (gc.centers[-1], f"end {gc.ends[1]}")],
+                          figures=[out.dir / f"mesh_{shade}.png"], numbers=d,
+                          caption=f"Length {gc.length:.4g} mm, mean radius {gc.mean_radius:.3g} mm. The surface is "
+                                  "shaded by each vertex's distance to the fitted axis (the black line): a narrowing "
+                                  "(stenosis) shows dark, a bulge bright. Drag to turn, scroll to zoom.")
     return gc, d
+
+
+def _write_centerlines(out, stem, network, axis_format):
+    """``stem.vtp`` (VTK, ParaView, 3D Slicer, VMTK) and/or ``stem.ply`` (MeshLab) of centre lines."""
+    for ext in (("vtp", "ply") if axis_format == "both" else (axis_format,)):
+        write_centerlines(out(f"{stem}.{ext}"), network)
+
+
+def _write_shaded(out, stem, V, F, colors, scalars):
+    """A shaded mesh as ``stem.ply`` (MeshLab: colours and scalars) and ``stem.vtp`` (ParaView: the scalars as
+    point data, the first one active, and the colours as ``Colors``)."""
+    for ext in ("ply", "vtp"):
+        write_mesh(out(f"{stem}.{ext}"), V, F, vertex_colors=colors, vertex_scalars=scalars)
 
 
 def bulges_to_dicts(bulges):
@@ -428,24 +499,27 @@ def run_fit_tree(V, F, mesh, out, ends, uinfo, *, axis_format="both", render=Tru
     d = {**tree_to_dict(tree), **uinfo, "bbox_diagonal": float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))),
          "input": str(mesh), "time_s": dt}
     write_json(out("tree.json"), d)
-    radius = np.concatenate([gc.radii for gc in tree.branches])
-    pdata = {"Radius": radius, "MaximumInscribedSphereRadius": radius,
-             "Abscissa": np.concatenate([gc.s * gc.length for gc in tree.branches]),
-             "T": np.concatenate([gc.frames[:, 0] for gc in tree.branches]),
-             "U": np.concatenate([gc.frames[:, 1] for gc in tree.branches])}
-    cdata = {"BranchId": np.arange(len(tree.branches)), "ParentId": tree.parent}
-    for ext in (("vtp", "ply") if axis_format == "both" else (axis_format,)):
-        write_polylines(out(f"tree.{ext}"), [gc.centers for gc in tree.branches], pdata, cdata)
+    _write_centerlines(out, "tree", centerline_network(tree, V, F), axis_format)
     vb = tree.vertex_branch.astype(float)
     ncol = 10 if len(tree.branches) <= 10 else 20  # one colour of the qualitative map per branch (cycled)
     cmap, shade = f"tab{ncol}", np.mod(vb, ncol)
-    write_mesh(out("mesh_branches.ply"), V, F, vertex_colors=torsion_colors(shade, -0.5, ncol - 0.5, cmap),
-               vertex_scalars={"branch": vb})
+    _write_shaded(out, "mesh_branches", V, F, torsion_colors(shade, -0.5, ncol - 0.5, cmap), {"branch": vb})
     if render:
         render_mesh(out("tree.png"), V, F, shade, vmin=-0.5, vmax=ncol - 0.5, cmap=cmap,
                     cbar_label="branch", alpha=tol.VIZ_TREE_ALPHA, lines=[gc.dense_points for gc in tree.branches],
                     title=f"{Path(mesh).name}: {len(tree.branches)} branches, {len(tree.junctions)} junctions, "
                           f"{len(tree.paths)} paths")
+        from scipy.spatial import cKDTree
+
+        axes = np.vstack([gc.dense_points for gc in tree.branches])
+        write_report_html(out("report.html"), f"{Path(mesh).name}: vessel tree",
+                          [ViewMesh(V, F, cKDTree(axes).query(V)[0], label="distance to the axis (mm)")],
+                          lines=[gc.dense_points for gc in tree.branches],
+                          labels=[(e.center, f"end {i}") for i, e in enumerate(tree.ends)],
+                          figures=[out.dir / "tree.png"], numbers=d,
+                          caption=f"{len(tree.branches)} branches, {len(tree.junctions)} junctions, {len(tree.paths)} "
+                                  f"paths from end {tree.root} (the widest). The surface is shaded by each vertex's "
+                                  "distance to the nearest branch axis (black lines). Drag to turn, scroll to zoom.")
     return tree, to_json(d)
 
 
@@ -481,18 +555,30 @@ def run_torsion(rest, deformed, out, *, smoothing=None, ends=None, units=None, s
         raise MismatchError(f"rest ({len(V0)} vertices, {len(F0)} faces) and deformed ({len(V1)} vertices, "
                             f"{len(F1)} faces) meshes must share vertices and faces")
     t0 = time.perf_counter()
-    prof = TorsionMeter(V0, F0, fit_generalized_cylinder(V0, F0, ends=ends), smoothing=smoothing)(V1)
+    rest_fit = fit_generalized_cylinder(V0, F0, ends=ends)
+    prof = TorsionMeter(V0, F0, rest_fit, smoothing=smoothing)(V1)
     dt = time.perf_counter() - t0
     d = {"command": "torsion", "rest": str(rest), "deformed": str(deformed), **uinfo, "time_s": dt,
          **profile_to_dict(prof)}
     write_json(out("profile.json"), d)
     write_csv(out("profile.csv"), {k: d[k] for k in ("s", "alpha_deg", "dalpha_deg", "curvature", "frenet_torsion")})
     al = np.degrees(prof.vertex_alpha)
-    write_mesh(out("deformed_twist.ply"), V1, F1, vertex_colors=torsion_colors(al), vertex_scalars={"alpha_deg": al})
+    _write_shaded(out, "deformed_twist", V1, F1, torsion_colors(al), {"alpha_deg": al})
+    _write_centerlines(out, "axis", centerline_network(rest_fit, V0, F0,
+                                                       twist=lambda b, s: np.interp(s, prof.s, prof.alpha)), "vtp")
     if render:
         render_mesh(out("deformed_twist.png"), V1, F1, al,
                     title=f"twist {np.degrees(prof.total_twist):.1f}\u00b0, E = {prof.energy:.3g} (Eq. 8)")
         plot_torsion_profile(out("profile.png"), prof)
+        m = max(float(np.max(np.abs(al))), tol.VIZ_MIN_RANGE)
+        write_report_html(out("report.html"), f"{Path(deformed).name}: material torsion against {Path(rest).name}",
+                          [ViewMesh(V1, F1, al, label="material twist \u03b1 (deg)", cmap="RdBu_r", vrange=(-m, m))],
+                          lines=[prof.centers],
+                          figures=[out.dir / "deformed_twist.png", out.dir / "profile.png"], numbers=d,
+                          caption=f"The deformed vessel shaded by its material twist \u03b1 (degrees, Eq. 6) about "
+                                  f"its axis, 0 at the rest fit's s = 0 end: red turns positively (right-handed "
+                                  f"about the axis from s = 0), blue negatively. Total twist "
+                                  f"{np.degrees(prof.total_twist):.1f}\u00b0, energy {prof.energy:.3g} (Eq. 8).")
     return prof, d
 
 
@@ -500,7 +586,8 @@ def run_torsion(rest, deformed, out, *, smoothing=None, ends=None, units=None, s
 
 
 #: Files :func:`run_join` may write (checked against the inputs before anything is written).
-JOIN_FILES = ("optimum.ply", "large_torsion.ply", "energy_curve.csv", "result.json", "joined_optimum.ply",
+JOIN_FILES = ("optimum.ply", "large_torsion.ply", "optimum.vtp", "large_torsion.vtp", "joined_optimum.vtp", "report.html",
+              "energy_curve.csv", "result.json", "joined_optimum.ply",
               "optimum.png", "large_torsion.png", "energy_curve.png", "profile_optimum.png",
               "profile_large_torsion.png")
 
@@ -596,9 +683,9 @@ def _write_join_states(out, F, states, m, others, name, large_deg, prefix, rende
     files = {}
     label = "material twist \u03b1 (deg)"
     for key, X, al, prof, ang in states:
-        write_mesh(out / f"{key}.ply", X, F, vertex_colors=torsion_colors(al, -m, m),
-                   vertex_scalars={"alpha_deg": al})
+        _write_shaded(lambda name: out / name, key, X, F, torsion_colors(al, -m, m), {"alpha_deg": al})
         files[f"{key}_mesh"] = prefix + f"{key}.ply"
+        files[f"{key}_vtp"] = prefix + f"{key}.vtp"
         if render:
             what = "minimum torsion" if key == "optimum" else f"large torsion (optimum {large_deg:+.0f}\u00b0)"
             render_mesh(out / f"{key}.png", X, F, al, vmin=-m, vmax=m, others=others, cbar_label=label,
@@ -617,8 +704,8 @@ def _write_joined(out, Vj, Fj, n_moving, al_opt, m, prefix):
     cj[:n_moving] = torsion_colors(al_opt, -m, m)
     aj = np.zeros(len(Vj))
     aj[:n_moving] = al_opt
-    write_mesh(out / "joined_optimum.ply", Vj, Fj, vertex_colors=cj, vertex_scalars={"alpha_deg": aj})
-    return {"joined_mesh": prefix + "joined_optimum.ply"}
+    _write_shaded(lambda name: out / name, "joined_optimum", Vj, Fj, cj, {"alpha_deg": aj})
+    return {"joined_mesh": prefix + "joined_optimum.ply", "joined_vtp": prefix + "joined_optimum.vtp"}
 
 
 def run_join(outdir, V, F, fixed, moving, target, *, other=None, name="join", n_curve=None,
@@ -705,6 +792,18 @@ def run_join_vessels(outdir, join, *, name="join", n_curve=None, curve_range_deg
     return r
 
 
+def placement_to_dict(M, point):
+    """What ``join_vessels(place=)`` did to the moving vessel (``placement`` of ``result.json``): None, or the
+    (4, 4) matrix, the rotation's angle in degrees and how far ``point`` (the joined end's centre, moved)
+    moved, in mm."""
+    if M is None:
+        return None
+    R, t = M[:3, :3], M[:3, 3]
+    turned = math.degrees(math.acos(float(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
+    c = np.asarray(point, float)  # where it is now; it came from R^T (c - t)
+    return {"matrix": M, "turned_deg": turned, "moved_mm": float(np.linalg.norm(c - R.T @ (c - t)))}
+
+
 def write_join_outputs(outdir, problem, res, times, *, others=(), joined=None, name="join", n_curve=None,
                        curve_range_deg=None, large_deg=None, progress=None, prefix="", render=True):
     """The energy curve about a join's optimum and the files of paper Figs. 2-4.
@@ -784,7 +883,7 @@ def write_join_outputs(outdir, problem, res, times, *, others=(), joined=None, n
         files.update(_write_joined(out, joined[0], joined[1], len(res.V), al_opt, m, prefix))
     log.info("%s: optimum %.2f deg, E = %.4g, %d evaluations, %.2f s search", name, wrap_deg(res.angle),
              res.energy, res.n_evals, times["time_s"])
-    return {
+    r = {
         "name": name, "n_vertices": int(np.shape(res.V)[0]), "n_faces": len(problem.F),
         "optimum_angle_deg": wrap_deg(res.angle), "roll_deg": wrap_deg(res.roll), "energy": res.energy,
         "total_twist_deg": math.degrees(res.profile.total_twist),
@@ -798,8 +897,32 @@ def write_join_outputs(outdir, problem, res, times, *, others=(), joined=None, n
                           "total_twist_deg": math.degrees(p_large.total_twist)},
         "energy_curve": {"angles_deg": np.degrees(angles), "energies": energies},
         "evaluations": {"angles_deg": np.degrees(res.angles), "energies": res.energies},
+        "placement": placement_to_dict(res.placement, problem.V[problem.moving].mean(axis=0)),
         "files": files,
     }
+    if render:
+        _join_report(out / "report.html", problem, res, al_opt, m, others, name, r, prefix)
+    return r
+
+
+def _join_report(path, problem, res, al_opt, m, others, name, r, prefix):
+    """``report.html`` of a join: the optimum shaded by its twist, the vessel joined to, the figures, the numbers."""
+    moved = "" if r["placement"] is None else (
+        f" The moving vessel was first placed against the other end: turned {r['placement']['turned_deg']:.1f}\u00b0"
+        f" and its end moved {r['placement']['moved_mm']:.1f} mm.")
+    files = r["files"]
+    write_report_html(
+        path, f"{name}: minimum-torsion join",
+        [ViewMesh(res.V, problem.F, al_opt, label="material twist \u03b1 (deg)", cmap="RdBu_r", vrange=(-m, m),
+                  name="joined vessel")] + [ViewMesh(Vo, Fo, name="vessel joined to") for Vo, Fo in others],
+        lines=[res.profile.centers], labels=[(problem.target.origin, "joined end")],
+        figures=[Path(path).parent / files[k][len(prefix):] for k in
+                 ("optimum_png", "energy_curve_png", "profile_optimum_png", "large_torsion_png") if k in files],
+        numbers={k: v for k, v in r.items() if k not in ("files",)},
+        caption=f"The joined vessel at the end rotation of least torsion ({r['optimum_angle_deg']:+.1f}\u00b0 from the "
+                f"anchor), shaded by its material twist \u03b1 in degrees relative to the held part (0 there): red "
+                f"turns positively about the axis, blue negatively. The vessel joined to is drawn in sand. Energy "
+                f"{r['energy']:.3g} (Eq. 8), total twist {r['total_twist_deg']:+.2f}\u00b0.{moved}")
 
 
 # ----------------------------------------------------------------------------- the demo

@@ -37,9 +37,10 @@ class PreparedMesh:
 
     Parameters
     ----------
-    V : (n, 3) float64
-    F : (m, 3) int64
-        Converted and validated here (:func:`vesselgp._validate.as_mesh`); a mesh whose only
+    V : (n, 3) float64, or a mesh object
+    F : (m, 3) int64, optional
+        Converted and validated here (:func:`vesselgp.as_mesh`: ``V`` may be a ``trimesh.Trimesh``,
+        ``pyvista.PolyData`` or ``meshio.Mesh``, with ``F`` left out); a mesh whose only
         fault is its faces' winding is oriented (logged), the caller's ``F`` is never changed.
     ends : sequence of VesselEnd, optional
         The mesh's ends, when already found (default :func:`vesselgp.vessel_ends`, on first use).
@@ -69,7 +70,7 @@ class PreparedMesh:
     (3, True)
     """
 
-    def __init__(self, V, F, ends=None):
+    def __init__(self, V, F=None, ends=None):
         V, F = as_mesh(V, F)
         F, topo = orient_faces(V, F)  # a winding fault alone is mended (logged), not refused
         self.V, self.F = V, F
@@ -102,10 +103,13 @@ class PreparedMesh:
 def prepared_mesh(V, F=None, ends=None):
     """``V`` itself when it is a :class:`PreparedMesh` (``F`` and ``ends`` then None), else ``PreparedMesh(V, F, ends)``.
 
+    ``V`` may also be another mesh object (``trimesh.Trimesh``, ``pyvista.PolyData``,
+    ``meshio.Mesh``) with ``F`` left out: it is converted by :func:`vesselgp.as_mesh`.
+
     Raises
     ------
     InvalidMeshError
-        ``F`` missing with arrays, or given with a prepared mesh.
+        ``F`` missing with arrays, or given with a mesh object.
     """
     if isinstance(V, PreparedMesh):
         if F is not None:
@@ -113,9 +117,7 @@ def prepared_mesh(V, F=None, ends=None):
         if ends is not None:
             raise EndsError("a PreparedMesh holds its ends: give them to PreparedMesh(V, F, ends=...)")
         return V
-    if F is None:
-        raise InvalidMeshError("F is missing: give the arrays V and F, or a vesselgp.PreparedMesh")
-    return PreparedMesh(V, F, ends)
+    return PreparedMesh(V, F, ends)  # as_mesh: arrays V and F, or one mesh object
 
 
 def _valid_ends(ends):

@@ -453,6 +453,20 @@ ENDS_TIP_DOME_TO = 0.85
 #: Rounded tips: a maximum closer than this many radii to a tip's centre is on that tip.
 ENDS_TIP_SEPARATION = 1.5
 
+# --- report.html (vesselgp.html_report) ------------------------------------------
+#: Opacity of the shaded mesh in the 3D view (below 1: the axis and the end labels show through).
+REPORT_MESH_OPACITY = 0.45
+#: The 3D view's walls: a mid grey, so that a white (untwisted) or sand-coloured vessel shows.
+REPORT_BACKGROUND = "rgb(176,181,190)"
+#: Where plotly's camera looks from, in units of the scene's half-extent (plotly's default is
+#: 1.25 each, which crops a long vessel).
+REPORT_CAMERA_EYE = (1.9, 1.9, 1.4)
+
+# --- centre lines as VMTK has them (vesselgp.network) ----------------------------
+#: Centre-line points about every this many local (mean) radii along each branch (VMTK resamples
+#: its lines at a step of this order).
+NETWORK_SPACING = 0.1
+
 # --- geodesic distances (vesselgp.mesh.geodesic) --------------------------------
 #: The heat time is at least extent^2 / (4 * this), the extent being twice the largest distance
 #: of a vertex from the centroid (rigid-invariant, at least the diameter): across the whole mesh
@@ -570,6 +584,16 @@ BATCH_TIMEOUT_POLL_S = 0.25
 #: come from the heap and are reused (Dask's 64 KiB trim threshold makes every large numpy array
 #: page-fault); a worker keeps at most this much freed memory.
 BATCH_MALLOC_THRESHOLD = 1 << 28
+#: The default runner (vesselgp.batch.dask_pays): seconds a local Dask cluster costs whatever it runs
+#: (importing distributed, starting the scheduler and the workers, their first imports, closing).
+#: Measured with ``scripts/bench_batch.py --crossover`` on 2 cores: 1.94 s (rows of 6k-vertex trees)
+#: and 1.89 s (rows of 1-4k-vertex tubes), fitted over 1-128 rows.
+BATCH_DASK_STARTUP_S = 1.9
+#: ... the cluster's speed-up per worker on rows of a few tenths of a second (1.64 on 2 workers) ...
+BATCH_DASK_EFFICIENCY = 0.82
+#: ... and the seconds a row costs a worker beyond its own work (scheduling, results back; 8-10 ms
+#: measured on 2 workers: rows of hundredths of a second are then sped up 1.24x, not 1.64x).
+BATCH_DASK_ROW_S = 0.01
 
 # --- bulges of the lumen (vesselgp.bulges) ---
 #: The neighbouring radius of a path sample is the larger median radius over this many path

@@ -35,7 +35,7 @@ import scipy.sparse.linalg as spla
 from scipy.interpolate import make_smoothing_spline
 
 from . import tolerances as tol
-from ._validate import as_mesh, as_points
+from ._validate import as_deformed, as_mesh
 from .curves import frenet
 from .errors import MismatchError
 from ._arrays import spread_subset, thinned
@@ -132,8 +132,9 @@ class TorsionMeter:
 
     Parameters
     ----------
-    V_rest : (n, 3) float64
-        Rest vertex positions.
+    V_rest : (n, 3) float64, or a mesh object
+        Rest vertex positions, or a ``trimesh.Trimesh``, ``pyvista.PolyData``,
+        ``meshio.Mesh`` or :class:`vesselgp.PreparedMesh` (``F`` left out; :func:`vesselgp.as_mesh`).
     F : (m, 3) int64
         Triangles (shared by rest and deformed meshes).
     rest : GeneralizedCylinder, optional
@@ -161,7 +162,7 @@ class TorsionMeter:
     90
     """
 
-    def __init__(self, V_rest, F, rest=None, *, ends=None, smoothing=None, correct_bias=None):
+    def __init__(self, V_rest, F=None, rest=None, *, ends=None, smoothing=None, correct_bias=None):
         V_rest, F = as_mesh(V_rest, F)
         self.F = F
         self.n = len(V_rest)
@@ -251,14 +252,15 @@ class TorsionMeter:
 
         Parameters
         ----------
-        V_deformed : (n, 3) float64
-            Deformed vertex positions, same order and count as ``V_rest``.
+        V_deformed : (n, 3) float64, or a mesh object
+            Deformed vertex positions, same order and count as ``V_rest``; or a mesh object
+            (as ``V_rest``) with the rest mesh's faces.
 
         Returns
         -------
         TorsionProfile
         """
-        V = as_points(V_deformed, "V_deformed")
+        V = as_deformed(V_deformed, self.F)
         if len(V) != self.n:
             raise MismatchError(
                 f"rest and deformed meshes differ: {self.n} vs {len(V)} vertices; "
@@ -318,7 +320,7 @@ class TorsionMeter:
         )
 
 
-def measure_torsion(V_rest, V_deformed, F, rest=None, *, ends=None, smoothing=None):
+def measure_torsion(V_rest, V_deformed, F=None, rest=None, *, ends=None, smoothing=None):
     """Material torsion of a deformed vessel against its RMF (paper Eq. 6-8).
 
     One-off form of :class:`TorsionMeter`; use the meter when measuring many
@@ -326,12 +328,13 @@ def measure_torsion(V_rest, V_deformed, F, rest=None, *, ends=None, smoothing=No
 
     Parameters
     ----------
-    V_rest : (n, 3) float64
-        Rest vertex positions.
-    V_deformed : (n, 3) float64
-        Deformed vertex positions, same vertex order.
+    V_rest : (n, 3) float64, or a mesh object
+        Rest vertex positions, or a ``trimesh.Trimesh``, ``pyvista.PolyData``,
+        ``meshio.Mesh`` or :class:`vesselgp.PreparedMesh` (``F`` left out; :func:`vesselgp.as_mesh`).
+    V_deformed : (n, 3) float64, or a mesh object
+        Deformed vertex positions, same vertex order; or a mesh object with the same faces.
     F : (m, 3) int64
-        Triangles shared by both.
+        Triangles shared by both (left out when ``V_rest`` is a mesh object).
     rest : GeneralizedCylinder, optional
         Fitted on ``V_rest`` (fitted when omitted); a path or branch of
         :func:`vesselgp.fit_vessel_tree` measures its own vertices only.
@@ -348,7 +351,7 @@ def measure_torsion(V_rest, V_deformed, F, rest=None, *, ends=None, smoothing=No
     Raises
     ------
     MismatchError
-        When the rest and deformed meshes have different vertex counts.
+        When the rest and deformed meshes have different vertex counts (or faces).
 
     Examples
     --------
@@ -361,7 +364,7 @@ def measure_torsion(V_rest, V_deformed, F, rest=None, *, ends=None, smoothing=No
     1.0
     """
     V_rest, F = as_mesh(V_rest, F)
-    V_def = as_points(V_deformed, "V_deformed")
+    V_def = as_deformed(V_deformed, F)
     if V_def.shape != V_rest.shape:
         raise MismatchError(
             f"rest and deformed meshes differ: {len(V_rest)} vs {len(V_def)} vertices; "

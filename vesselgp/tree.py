@@ -41,6 +41,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import tolerances as tol
+from ._interop import polylines_to_pyvista
 from .axis import Axis
 from .branches import decomposed, root_end
 from .bulges import tree_bulges
@@ -138,6 +139,31 @@ class VesselTree:
     def children(self):
         """Child branches of each branch, tuple of tuples."""
         return tuple(tuple(int(c) for c in np.flatnonzero(self.parent == b)) for b in range(len(self.parent)))
+
+    def to_pyvista(self):
+        """The branch axes as a ``pyvista.PolyData`` (needs pyvista: ``pip install "vesselgp[formats]"``).
+
+        Returns
+        -------
+        pyvista.PolyData
+            One line cell per branch (its axis nodes), with cell data ``BranchId`` and
+            ``ParentId`` (-1 for the trunk) and point data ``s`` (normalised along the branch),
+            ``abscissa`` (arc length from the branch start, mesh units), ``radius`` and the
+            frame's ``T``, ``U``, ``V``.
+
+        Raises
+        ------
+        DependencyError
+            pyvista is not installed.
+        """
+        b = self.branches
+        point_data = {"s": np.concatenate([g.s for g in b]),
+                      "abscissa": np.concatenate([g.s * g.length for g in b]),
+                      "radius": np.concatenate([g.radii for g in b])}
+        point_data.update({n: np.concatenate([g.frames[:, k] for g in b]) for k, n in enumerate("TUV")})
+        return polylines_to_pyvista([g.centers for g in b], point_data,
+                                    {"BranchId": np.arange(len(b)), "ParentId": np.asarray(self.parent)},
+                                    what="VesselTree.to_pyvista()")
 
 
 # ----------------------------------------------------------------------------- one branch
@@ -390,9 +416,10 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
 
     Parameters
     ----------
-    V : (n, 3) float64 or PreparedMesh
+    V : (n, 3) float64, PreparedMesh or mesh object
         Vertex positions, or a :class:`vesselgp.PreparedMesh` (checked once for several fits;
-        ``F`` and ``ends`` are then left out).
+        ``F`` and ``ends`` are then left out), or a ``trimesh.Trimesh``,
+        ``pyvista.PolyData`` or ``meshio.Mesh`` (``F`` left out; :func:`vesselgp.as_mesh`).
     F : (m, 3) int64
     root : int, optional
         Index into the ends of the root end; default the widest.

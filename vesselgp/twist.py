@@ -44,11 +44,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import tolerances as tol
+from ._validate import mesh_arguments
 from .errors import EndsError
 from .mesh._ends_format import end_listing
 from .rotations import wrap_angle
 from .fit import fit_generalized_cylinder
-from .prepared import PreparedMesh
+from .prepared import prepared_mesh
 from .tree import fit_vessel_tree
 
 log = logging.getLogger(__name__)
@@ -206,12 +207,13 @@ def _project_s(main, P):
     return float(best[1]) * main.length
 
 
-def scan_landmarks(V, F, ends=None):
+def scan_landmarks(V, F=None, ends=None):
     """The side-branch landmarks of one scan (steps 1-3 of the module notes).
 
     Parameters
     ----------
-    V : (n, 3) float64
+    V : (n, 3) float64, PreparedMesh or mesh object
+        Vertex positions, or a mesh (:func:`vesselgp.as_mesh`; ``F`` left out).
     F : (m, 3) int64
     ends : (int, int), optional
         End indices of the main vessel (``vessel_ends`` order), from ``s = 0``;
@@ -226,7 +228,7 @@ def scan_landmarks(V, F, ends=None):
     EndsError
         Bad ends, or fewer than two landmarks.
     """
-    pm = PreparedMesh(V, F)  # checked once for both fits (issue #34)
+    pm = prepared_mesh(V, F)  # checked once for both fits (issue #34)
     i, j = _main_ends(pm.ends, ends, "ends")
     tree = fit_vessel_tree(pm, root=i)
     k = next(q for q, p in enumerate(tree.paths) if p.ends[1] == j)
@@ -258,7 +260,7 @@ def scan_landmarks(V, F, ends=None):
     rows.sort(key=lambda r: r[0])
     if len(rows) < 2:
         raise EndsError(f"the main vessel between ends {i} and {j} has {len(rows)} side branch(es); twist between "
-                        "scans needs at least two landmarks (choose other ends with --ends)")
+                        "scans needs at least two landmarks (choose other ends with ends=)")
     s, P, az, d, r, br = (np.array(x) for x in zip(*rows))
     return Landmarks(tree=tree, ends=(i, j), main=main, length=float(main.length), points=P, s=s, azimuth=az,
                      direction=d, radius=r, branch=br.astype(np.int64))
@@ -289,15 +291,29 @@ def _match(A, B):
     return pairs[::-1], float(D[na, nb])
 
 
-def twist_between(V_a, F_a, V_b, F_b, *, ends_a=None, ends_b=None):
+def _scan_landmarks(scan, V, F, ends):
+    """:func:`scan_landmarks` of scan A or B of :func:`twist_between`; its refusals name the scan and the keyword
+    (``ends_a``, ``ends_b``) that chooses its main vessel."""
+    try:
+        return scan_landmarks(V, F, ends)
+    except EndsError as exc:
+        raise type(exc)(f"scan {scan.upper()}: " + str(exc).replace("ends=", f"ends_{scan}=")) from None
+
+
+def twist_between(V_a, F_a=None, V_b=None, F_b=None, *, ends_a=None, ends_b=None):
     """Material twist of an artery between two scans, from its side branches (module notes).
+
+    Each scan is its arrays ``V, F`` or one mesh object (``trimesh.Trimesh``,
+    ``pyvista.PolyData``, ``meshio.Mesh``, :class:`vesselgp.PreparedMesh`;
+    :func:`vesselgp.as_mesh`): ``twist_between(scan_a, scan_b)`` reads as
+    ``twist_between(V_a, F_a, V_b, F_b)``.
 
     Parameters
     ----------
-    V_a : (n, 3) float64
+    V_a : (n, 3) float64, or a mesh object
         First scan (the reference: lengths and the axis direction are its).
     F_a : (m, 3) int64
-    V_b : (n2, 3) float64
+    V_b : (n2, 3) float64, or a mesh object
         Second scan (any rigid pose, any meshing).
     F_b : (m2, 3) int64
     ends_a, ends_b : (int, int), optional
@@ -322,8 +338,9 @@ def twist_between(V_a, F_a, V_b, F_b, *, ends_a=None, ends_b=None):
     >>> len(r.segment_twist), bool(abs(np.degrees(r.total_twist - p.total_twist)) < 2.0)
     (2, True)
     """
-    A = scan_landmarks(V_a, F_a, ends_a)
-    B = scan_landmarks(V_b, F_b, ends_b)
+    (V_a, F_a), (V_b, F_b) = mesh_arguments((V_a, F_a, V_b, F_b), ("mesh", "mesh"), "twist_between")
+    A = _scan_landmarks("a", V_a, F_a, ends_a)
+    B = _scan_landmarks("b", V_b, F_b, ends_b)
     pairs, cost = _match(A, B)
     if ends_b is None:
         Bf = B.flipped()

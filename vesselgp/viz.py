@@ -198,7 +198,7 @@ def _pymeshlab_message(exc):
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
-def _decimated(V, F, S, max_faces, period):
+def decimated(V, F, S, max_faces, period):
     """:func:`_decimate`, or for periodic scalars the nearest original vertex's value (no blending across the wrap)."""
     if S is None or period is None:
         return _decimate(V, F, S, max_faces)
@@ -467,7 +467,7 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
     dpi = tol.VIZ_DPI if dpi is None else dpi
     cm = _colormap(cmap)
     meshes = [(V, F, S, True)] + [(*as_mesh(Vo, Fo), None, False) for Vo, Fo in others]
-    meshes = [_decimated(v, f, s, max_faces, period) + (main,) if len(f) > max_faces else (v, f, s, main)
+    meshes = [decimated(v, f, s, max_faces, period) + (main,) if len(f) > max_faces else (v, f, s, main)
               for v, f, s, main in meshes]
     basis = view_basis(V if view is None else np.concatenate([m[0] for m in meshes]), view)
     norm = Normalize(*_symmetric_range(S if S is not None else [0.0], vmin, vmax))

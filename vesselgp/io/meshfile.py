@@ -1,8 +1,10 @@
 """Reading and writing triangle mesh files.
 
 :func:`read_mesh` returns ``(V, F)`` for STL (ASCII and binary), PLY (ASCII
-and binary), OBJ, OFF and VTK XML PolyData (``.vtp``); polygons are
-triangulated and the per-face corners of STL are merged into shared vertices.
+and binary), OBJ, OFF, VTK XML PolyData (``.vtp``), legacy VTK (``.vtk``:
+polydata and unstructured grids, ASCII and binary) and VTK XML unstructured grids
+(``.vtu``); polygons are triangulated and the per-face corners of STL are merged
+into shared vertices.
 :func:`write_mesh` writes the same formats atomically (a temporary file in the
 target folder, then :func:`os.replace`), optionally with per-vertex colours and
 scalars (PLY and VTP; colours also in OBJ and OFF).
@@ -18,6 +20,13 @@ Backends, chosen after checking each on polygons and on NaN coordinates:
 * VTP: a small parser here (xml.etree, base64, zlib): ascii, inline binary
   and appended (base64 or raw) DataArrays, UInt32/UInt64 headers, optional
   ``vtkZLibDataCompressor``.
+* VTU and legacy VTK unstructured grids: meshio (a dependency); legacy VTK
+  POLYDATA, which meshio does not read: VTK's own ``vtkPolyDataReader`` (the
+  ``vtk`` package, in the ``formats`` extra; a clear error without it). Which
+  of the two is told by the file's ``DATASET`` line. Cells are turned into
+  triangles by :mod:`vesselgp._interop`: quads and polygons fanned,
+  strips unrolled, vertex and line cells left out (logged), volume cells
+  refused. Exactly equal points are kept apart, as OBJ, PLY and VTP keep them.
 
 Writers are plain numpy so that float64 coordinates round-trip exactly.
 """
@@ -26,13 +35,15 @@ from __future__ import annotations
 import logging
 import os
 import re
+import threading
 import time
 from pathlib import Path
 
 import numpy as np
 
+from .._interop import meshio_triangles, vtk_polydata_arrays
 from .._validate import as_mesh
-from ..errors import InvalidMeshError, MeshReadError, MeshWriteError
+from ..errors import DependencyError, InvalidMeshError, MeshReadError, MeshWriteError, VesselError
 from .atomic import atomic_write
 from .vtp import FLOAT_FMT, read_vtp, write_vtp
 
@@ -41,7 +52,7 @@ __all__ = ["read_mesh", "write_mesh", "READ_FORMATS", "WRITE_FORMATS"]
 log = logging.getLogger(__name__)
 
 #: File extensions understood by :func:`read_mesh`.
-READ_FORMATS = (".stl", ".ply", ".obj", ".off", ".vtp")
+READ_FORMATS = (".stl", ".ply", ".obj", ".off", ".vtp", ".vtk", ".vtu")
 #: File extensions written by :func:`write_mesh`.
 WRITE_FORMATS = (".ply", ".obj", ".off", ".stl", ".vtp")
 
@@ -50,7 +61,7 @@ WRITE_FORMATS = (".ply", ".obj", ".off", ".stl", ".vtp")
 # reading
 # --------------------------------------------------------------------------- #
 def read_mesh(path):
-    """Read a triangle mesh from STL, PLY, OBJ, OFF or VTP.
+    """Read a triangle mesh from STL, PLY, OBJ, OFF, VTP, legacy VTK or VTU.
 
     Parameters
     ----------
@@ -63,15 +74,20 @@ def read_mesh(path):
         Vertex positions. For STL, exactly equal corner positions are merged
         into one vertex (first-occurrence order is kept).
     F : (m, 3) int64
-        Triangles; quads and polygons are fan-triangulated.
+        Triangles; quads and polygons are fan-triangulated (a quad ``(a, b, c, d)``
+        gives ``(a, b, c), (a, c, d)``), VTK triangle strips unrolled. Line and
+        vertex cells of VTK files are left out (logged).
 
     Raises
     ------
     MeshReadError
-        Missing or empty file, unknown extension, unreadable content, or a
-        file without triangles.
+        Missing or empty file, unknown extension, unreadable content, a
+        file without triangles, or a VTK volume mesh (tetrahedra, hexahedra:
+        the message says to extract its surface) or image.
     InvalidMeshError
         NaN or infinite coordinates, or face indices out of range.
+    DependencyError
+        A legacy VTK POLYDATA file without the ``vtk`` package installed.
 
     Examples
     --------
@@ -98,7 +114,7 @@ def read_mesh(path):
         raise MeshReadError(f"{p}: file is empty; re-export the mesh")
     t0 = time.perf_counter()
     reader = {".stl": _read_stl, ".ply": _read_ply, ".obj": _read_igl,
-              ".off": _read_igl, ".vtp": _read_vtp_mesh}[ext]
+              ".off": _read_igl, ".vtp": _read_vtp_mesh, ".vtk": _read_vtk, ".vtu": _read_vtu}[ext]
     V, F = reader(p)
     V = np.asarray(V)
     F = np.asarray(F)
@@ -192,6 +208,109 @@ def _read_ply(p):
 def _read_vtp_mesh(p):
     V, F, _ = read_vtp(p)
     return V, F
+
+
+def _read_vtu(p):
+    return _read_meshio(p, "vtu")
+
+
+def _read_vtk(p):
+    """A legacy VTK file: meshio for unstructured grids, VTK's reader for polydata."""
+    dataset = _vtk_dataset(p)
+    if dataset == "UNSTRUCTURED_GRID":
+        return _read_meshio(p, "vtk")
+    if dataset == "POLYDATA":
+        return _read_vtk_polydata(p)
+    if dataset is None:
+        raise MeshReadError(f"{p}: no DATASET line in the legacy VTK header; check that the file is a "
+                            "complete mesh (POLYDATA or UNSTRUCTURED_GRID)")
+    raise MeshReadError(f"{p}: a legacy VTK {dataset} is an image or grid, not a surface mesh; extract the "
+                        "vessel's surface first (ParaView's Contour, skimage.measure.marching_cubes) and save "
+                        "it as .vtk, .vtp or .stl")
+
+
+def _vtk_dataset(p):
+    """The dataset type of a legacy VTK file (``POLYDATA``, ...) from its header, or None."""
+    with open(p, "rb") as fh:
+        lines = fh.read(4096).split(b"\n")
+    if not lines[0].lstrip().startswith(b"# vtk DataFile"):
+        raise MeshReadError(f"{p}: not a legacy VTK file (no '# vtk DataFile Version' first line); a VTK XML "
+                            "file is read as .vtp (PolyData) or .vtu (UnstructuredGrid): rename it")
+    for line in lines[3:16]:  # after the version, the title and ASCII/BINARY
+        words = line.split()
+        if words and words[0].upper() == b"DATASET":
+            return words[1].upper().decode("ascii", "replace") if len(words) > 1 else None
+    return None
+
+
+def _read_meshio(p, fmt):
+    import meshio
+
+    # the format's own reader: meshio.read(path) prints a failure and calls sys.exit(1)
+    reader = {"vtu": meshio.vtu.read, "vtk": meshio.vtk.read}[fmt]
+    try:
+        mesh = reader(str(p))
+    except VesselError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - meshio's ReadError and what its parsers raise on a broken file
+        raise _unreadable(p, exc) from None
+    blocks = [(c.type, c.data) for c in mesh.cells]
+    return np.asarray(mesh.points, np.float64), meshio_triangles(blocks, str(p), MeshReadError)
+
+
+_VTK_LOCK = threading.Lock()
+
+
+def _read_vtk_polydata(p):
+    try:
+        from vtkmodules.vtkIOLegacy import vtkPolyDataReader
+    except ImportError:
+        raise DependencyError(
+            f"{p}: a legacy VTK POLYDATA file needs the vtk package, which is not installed: pip install vtk "
+            "(or pip install \"vesselgp[formats]\"), or save the mesh as .vtp, .ply or .stl"
+        ) from None
+    reader = vtkPolyDataReader()
+    reader.SetFileName(str(p))
+    errors = _vtk_run(reader)
+    if errors:
+        raise MeshReadError(f"{p}: unreadable VTK content ({errors[0]}); check that the file is a complete "
+                            "mesh of that format")
+    return vtk_polydata_arrays(reader.GetOutput(), str(p), MeshReadError)
+
+
+def _vtk_run(reader):
+    """Update a VTK reader; its error messages (warnings are logged), none printed by VTK's output window."""
+    from vtkmodules.util.misc import calldata_type
+    from vtkmodules.vtkCommonCore import VTK_STRING, vtkCommand, vtkOutputWindow, vtkStringOutputWindow
+
+    texts = []
+
+    @calldata_type(VTK_STRING)
+    def heard(obj, event, text):
+        texts.append(text)
+
+    reader.AddObserver(vtkCommand.ErrorEvent, heard)
+    reader.AddObserver(vtkCommand.WarningEvent, heard)
+    with _VTK_LOCK:  # VTK's generic warnings (not the reader's) go to its one output window
+        previous = vtkOutputWindow.GetInstance()
+        window = vtkStringOutputWindow()
+        vtkOutputWindow.SetInstance(window)
+        try:
+            reader.Update()
+        finally:
+            vtkOutputWindow.SetInstance(previous)
+    texts.append(window.GetOutput())
+    errors = []
+    for text in texts:
+        lines = [ln.strip() for ln in str(text or "").splitlines() if ln.strip()]
+        if not lines:
+            continue
+        message = re.sub(r"^vtk\w+ \(0x[0-9a-fA-F]+\): ", "", lines[-1])
+        if "error" in text.lower():
+            errors.append(message)
+        else:
+            log.warning("VTK: %s", message)
+    return errors
 
 
 # --------------------------------------------------------------------------- #

@@ -10,7 +10,7 @@ from .._validate import as_points
 from ..errors import MeshWriteError
 from .atomic import atomic_write
 
-__all__ = ["write_polyline", "write_polylines"]
+__all__ = ["write_polyline", "write_polylines", "write_centerlines"]
 
 
 def write_polyline(path, P, point_data=None):
@@ -70,7 +70,8 @@ def _vtp_arrays(fh, tag, data, n):
     for name, a in data.items():
         nc = 1 if a.ndim == 1 else 3
         integer = a.dtype.kind in "iub"
-        fh.write(f'        <DataArray type="{"Int64" if integer else "Float64"}" Name="{name}" '
+        vtype = ("Int32" if a.dtype.itemsize <= 4 else "Int64") if integer else "Float64"
+        fh.write(f'        <DataArray type="{vtype}" Name="{name}" '
                  f'NumberOfComponents="{nc}" format="ascii">\n')
         np.savetxt(fh, a.reshape(n, nc), fmt="%d" if integer else "%.10g")
         fh.write("        </DataArray>\n")
@@ -106,8 +107,59 @@ def write_polylines(path, lines, point_data=None, cell_data=None):
     True
     """
     P, sizes, data, cdata = _checked(lines, point_data, cell_data)
+    ends = np.cumsum(sizes)
+    _write_lines(path, P, [np.arange(e - k, e) for e, k in zip(ends, sizes)], data, cdata)
+
+
+def write_centerlines(path, network):
+    """Write centre lines (:class:`vesselgp.network.CenterlineNetwork`) as VMTK has them, atomically.
+
+    ``.vtp``: VTK XML PolyData over shared points, one ``<Lines>`` cell per tract, VMTK's point and
+    cell arrays (integer cell arrays as ``Int32``, as VMTK writes them), which VTK, ParaView,
+    3D Slicer and VMTK's scripts read. ``.ply``: the same points and each cell's edges, scalar
+    point arrays as vertex properties and cell arrays as edge properties (MeshLab).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        ``.vtp`` or ``.ply``.
+    network : CenterlineNetwork
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> from vesselgp.network import CenterlineNetwork
+    >>> P = np.c_[np.zeros(5), np.zeros(5), np.arange(5.0)]
+    >>> net = CenterlineNetwork(P, (np.arange(3), np.arange(2, 5)), {"Abscissas": P[:, 2]},
+    ...                         {"TractIds": np.array([0, 1])})
+    >>> d = tempfile.mkdtemp()
+    >>> write_centerlines(os.path.join(d, "c.vtp"), net)
+    >>> 'NumberOfPoints="5" NumberOfVerts="0" NumberOfLines="2"' in open(os.path.join(d, "c.vtp")).read()
+    True
+    """
+    P = as_points(network.points, "centre-line points", min_rows=2)
     k = len(P)
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    cells = [np.asarray(c, np.int64) for c in network.cells]
+    if not cells or any(len(c) < 2 or c.min() < 0 or c.max() >= k for c in cells):
+        raise MeshWriteError(f"centre lines need cells of at least two of their {k} points")
+    pdata = {}
+    for name, a in network.point_data.items():
+        a = np.asarray(a)
+        if a.shape not in ((k,), (k, 3)):
+            raise MeshWriteError(f"point data {name!r} must have shape ({k},) or ({k}, 3), got {a.shape}")
+        pdata[name] = a if a.dtype.kind in "iub" else a.astype(float)
+    cdata = {}
+    for name, a in network.cell_data.items():
+        a = np.asarray(a)
+        if a.shape != (len(cells),):
+            raise MeshWriteError(f"cell data {name!r} must have one value per cell ({len(cells)}), got {a.shape}")
+        cdata[name] = a.astype(np.int32) if a.dtype.kind in "iub" else a.astype(float)
+    _write_lines(path, P, cells, pdata, cdata)
+
+
+def _write_lines(path, P, cells, data, cdata):
+    """Points ``P``, polyline cells (point ids) and their point and cell arrays, as .vtp or .ply."""
+    k, sizes = len(P), [len(c) for c in cells]
     ext = Path(os.fspath(path)).suffix.lower()
     if ext == ".vtp":
         def w(fh):
@@ -121,13 +173,13 @@ def write_polylines(path, lines, point_data=None, cell_data=None):
             np.savetxt(fh, P, fmt="%.10g")
             fh.write("        </DataArray>\n      </Points>\n      <Lines>\n")
             fh.write('        <DataArray type="Int64" Name="connectivity" format="ascii">\n')
-            fh.write(" ".join(map(str, range(k))) + "\n        </DataArray>\n")
+            fh.write(" ".join(map(str, np.concatenate(cells))) + "\n        </DataArray>\n")
             fh.write('        <DataArray type="Int64" Name="offsets" format="ascii">\n'
                      + " ".join(map(str, np.cumsum(sizes))) + "\n        </DataArray>\n")
             fh.write("      </Lines>\n    </Piece>\n  </PolyData>\n</VTKFile>\n")
     elif ext == ".ply":
         scal = {n: a for n, a in data.items() if a.ndim == 1}
-        E = np.vstack([np.c_[np.arange(a, a + n - 1), np.arange(a + 1, a + n)] for a, n in zip(starts, sizes)])
+        E = np.vstack([np.c_[c[:-1], c[1:]] for c in cells])
         per_edge = {n: np.repeat(a, np.asarray(sizes) - 1) for n, a in cdata.items()}
 
         def w(fh):

@@ -128,7 +128,7 @@ class CleanReport:
         )
 
 
-def clean_mesh(V, F, keep_largest=True, *, smooth=0):
+def clean_mesh(V, F=None, keep_largest=True, *, smooth=0):
     """Repair a triangle mesh and keep its largest connected component; optionally smooth it.
 
     Steps (pymeshlab filters unless noted): remove unreferenced vertices,
@@ -147,9 +147,9 @@ def clean_mesh(V, F, keep_largest=True, *, smooth=0):
     Parameters
     ----------
     V : (n, 3) float64
-        Vertex positions.
+        Vertex positions, or a mesh object (``trimesh.Trimesh``, ``pyvista.PolyData``, ``meshio.Mesh``: :func:`vesselgp.as_mesh`).
     F : (m, 3) int64
-        Triangles.
+        Triangles (left out with a mesh object).
     keep_largest : bool
         Drop every component but the largest by area.
     smooth : int

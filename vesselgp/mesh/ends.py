@@ -91,7 +91,7 @@ class VesselEnd:
         return f"{self.kind} r={self.radius:.3g} at {format_point(self.center, scale)}"
 
 
-def vessel_ends(V, F, *, topology=None):
+def vessel_ends(V, F=None, *, topology=None):
     """Find every end of a vessel or vessel tree, and nothing else.
 
     Three kinds of ends are found, all of them on every mesh:
@@ -114,9 +114,9 @@ def vessel_ends(V, F, *, topology=None):
     Parameters
     ----------
     V : (n, 3) float64
-        Vertex positions (a clean mesh; see :func:`clean_mesh`).
+        Vertex positions (a clean mesh; see :func:`clean_mesh`), or a mesh object (``trimesh.Trimesh``, ``pyvista.PolyData``, ``meshio.Mesh``: :func:`vesselgp.as_mesh`).
     F : (m, 3) int64
-        Triangles.
+        Triangles (left out with a mesh object).
     topology : MeshTopology, optional
         The topology of ``F`` with ``len(V)`` vertices, when the caller has
         it already (otherwise it is built here).

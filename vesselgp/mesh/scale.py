@@ -45,7 +45,7 @@ class MeshScale:
     warning: str | None
 
 
-def mesh_scale(V, F, ends=None, *, median_edge=None):
+def mesh_scale(V, F=None, ends=None, *, median_edge=None):
     """Edge length, size and a guess of the length unit of a vessel mesh.
 
     Vessels in millimetres have bounding-box diagonals of about 10-500. A
@@ -58,9 +58,9 @@ def mesh_scale(V, F, ends=None, *, median_edge=None):
     Parameters
     ----------
     V : (n, 3) float64
-        Vertex positions.
+        Vertex positions, or a mesh object (``trimesh.Trimesh``, ``pyvista.PolyData``, ``meshio.Mesh``: :func:`vesselgp.as_mesh`).
     F : (m, 3) int64
-        Triangles.
+        Triangles (left out with a mesh object).
     ends : sequence of VesselEnd, optional
         Ends from :func:`vessel_ends`; their radii give ``radius_range``.
     median_edge : float, optional
