@@ -791,11 +791,41 @@ MUTATIONS = {
         "        rows = np.concatenate([E[low, 0], E[:, 0]])",
         ["tests/test_topology.py"],
     ),
+    "join_twist_not_toward_the_joined_end": (
+        "vesselgp/pipeline.py",
+        "    return 1.0 if np.mean(s[problem.moving]) >= np.mean(s[problem.fixed]) else -1.0",
+        "    return 1.0",
+        ["tests/test_figures.py::test_join_twist_colour_agrees_with_its_title_and_the_turn"],
+    ),
+    "torsion_render_colour_sign": (
+        "vesselgp/pipeline.py",
+        "    al = np.degrees(prof.vertex_alpha)",
+        "    al = -np.degrees(prof.vertex_alpha)",
+        ["tests/test_figures.py::test_a_twist_render_is_red_where_its_title_says_plus"],
+    ),
+    "profile_rate_per_unit_s": (
+        "vesselgp/viz.py",
+        "np.degrees(profile.dalpha) / L, color=",
+        "np.degrees(profile.dalpha), color=",
+        ["tests/test_figures.py::test_profile_is_drawn_against_arc_length_in_mm"],
+    ),
+    "energy_fit_under_the_data": (
+        "vesselgp/viz.py",
+        'zorder=4, gid="quadratic fit"',
+        'zorder=1, gid="quadratic fit"',
+        ["tests/test_figures.py::test_energy_curve_fit_is_visible_and_the_long_title_is_not_cut"],
+    ),
+    "scale_bar_not_to_scale": (
+        "vesselgp/viz.py",
+        "Line2D([x, x + length * per_unit], [y, y]",
+        "Line2D([x, x + length], [y, y]",
+        ["tests/test_figures.py::test_twist_scans_have_a_readable_aspect_and_a_scale_bar"],
+    ),
 }
 
 
 def _copy_tree(dst):
-    for name in ("vesselgp", "tests"):
+    for name in ("vesselgp", "tests", "docs"):  # docs: the tests read the documented figures (tests/_docs.py)
         shutil.copytree(ROOT / name, dst / name, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(ROOT / "pyproject.toml", dst / "pyproject.toml")
 

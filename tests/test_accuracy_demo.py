@@ -1,4 +1,4 @@
-"""README "Accuracy and speed", demo table: both paper cases at the demo's default resolution.
+"""docs/accuracy.md, demo table: both paper cases at the demo's default resolution.
 
 The figures (vertices, optimum, energy at the optimum, evaluations) are what
 ``vesselgp demo`` reports; here the join is run the same way (default method and
@@ -15,11 +15,13 @@ import pytest
 
 import vesselgp
 from vesselgp.synthetic import paper_case
+from _docs import figure, table
 from _reference import wrap
 
 FACTOR = 1.5
-# case: (vertices, optimum in degrees, energy at the optimum, evaluations)
-README_DEMO = {1: (8299, 0.2, 1.8e-07, 9), 2: (14189, -8.5, 2.1e-04, 10)}
+# case: (vertices, optimum in degrees, energy at the optimum, evaluations), from docs/accuracy.md
+DOCS_DEMO = {int(figure(case)): (int(figure(c[0])), figure(c[1]), figure(c[2]), int(figure(c[3])))
+               for case, c in table("accuracy.md", "case", "vertices", "optimum (deg)").items()}
 
 
 @pytest.fixture(scope="module")
@@ -41,8 +43,8 @@ def demo_cases():
 @pytest.mark.parametrize("n", [1, 2])
 def test_demo_table(demo_cases, n):
     c, p, res = demo_cases(n)
-    n_vertices, angle_deg, energy, evals = README_DEMO[n]
-    assert abs(len(c.V) - n_vertices) <= 0.05 * n_vertices, "not the README's mesh any more"
+    n_vertices, angle_deg, energy, evals = DOCS_DEMO[n]
+    assert abs(len(c.V) - n_vertices) <= 0.05 * n_vertices, "not the documented mesh any more"
     # the optimum: the table's figure to within the join's stated accuracy (0.5 degree; the
     # search stops at 1e-4 rad, and the figure is rounded to 0.1 degree)
     assert abs(np.degrees(wrap(res.angle - np.radians(angle_deg)))) <= 0.5, np.degrees(res.angle)
@@ -52,7 +54,7 @@ def test_demo_table(demo_cases, n):
 
 
 def test_case1_optimum_is_orders_of_magnitude_below_a_quarter_turn(demo_cases):
-    """README: case 1's energy at the optimum is four orders of magnitude below the energy at
+    """docs/accuracy.md: case 1's energy at the optimum is four orders of magnitude below the energy at
     +-90 degrees, which is about 2.7: a quarter turn spread uniformly over the free 90 % of the
     length has E = (pi/2)^2 / 0.9 = 2.74 (measured 2.71: the spline rounds the kink at the
     held part)."""

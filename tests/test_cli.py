@@ -103,10 +103,14 @@ def test_fit(gen, tmp_path, capsys):
     assert abs(n - 1 - 30 / (0.1 * 1.5)) <= 3 and piece.get("NumberOfLines") == "1"
     assert f"element edge {n - 1}" in (out / "axis.ply").read_text()
     V, _ = read_mesh(gen / "vessel.ply")
-    Vs, _ = read_mesh(out / "mesh_theta.ply")
+    Vs, _ = read_mesh(out / "mesh_radius.ply")  # the default shading: each vertex's distance to the axis, in mm
     assert len(Vs) == len(V)
-    assert len(np.unique(ply_colours(out / "mesh_theta.ply"), axis=0)) > 10
-    assert_png(out / "mesh_theta.png")
+    from test_vtk_outputs import arrays, read_vtp
+
+    radius = arrays(read_vtp(out / "mesh_radius.vtp").GetPointData())["radius"]
+    assert np.allclose(radius, 1.5, rtol=0.02)  # the generated straight tube's radius
+    assert_png(out / "mesh_radius.png")
+    assert (out / "report.html").stat().st_size > 0
 
 
 def test_torsion(gen, tmp_path, capsys):

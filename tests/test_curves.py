@@ -12,11 +12,11 @@ from _reference import helix as helix_exact, rmf_ode, signed_angle
 
 C = 0.5  # helix (cos t, sin t, C t)
 
-# README "Accuracy and speed", RMF: double reflection on the helix (cos t, sin t, t/2), 100
+# docs/accuracy.md, "Rotation-minimizing frames": double reflection on the helix (cos t, sin t, t/2), 100
 # samples over two turns, is 1.9e-5 degrees from the exact RMF with exact tangents and with
 # tangents from the points alone (measured 1.86e-5 and 1.88e-5); convergence order 4.06
-README_RMF_ERROR_DEG = 1.9e-5
-README_RMF_ORDER = 4.06
+DOCS_RMF_ERROR_DEG = 1.9e-5
+DOCS_RMF_ORDER = 4.06
 
 
 def helix(K):
@@ -39,14 +39,14 @@ def rmf_error_deg(K, exact_tangents, method=None):
 
 def test_double_reflection_helix_exact_tangents_fourth_order():
     e50, e100 = rmf_error_deg(50, True), rmf_error_deg(100, True)
-    assert e100 <= 1.5 * README_RMF_ERROR_DEG, e100
+    assert e100 <= 1.5 * DOCS_RMF_ERROR_DEG, e100
     # fourth order (Wang et al. 2008): measured 4.06; a second-order method gives 2
     assert np.log2(e50 / e100) >= 3.8
 
 
 def test_double_reflection_helix_from_points():
     e50, e100 = rmf_error_deg(50, False), rmf_error_deg(100, False)
-    assert e100 <= 1.5 * README_RMF_ERROR_DEG, e100  # quintic-spline tangents lose nothing
+    assert e100 <= 1.5 * DOCS_RMF_ERROR_DEG, e100  # quintic-spline tangents lose nothing
     assert np.log2(e50 / e100) >= 3.8  # measured 4.15
 
 

@@ -13,20 +13,19 @@ import vesselgp
 from vesselgp import InvalidMeshError, NotTubularError, fit_generalized_cylinder
 from vesselgp.synthetic import named_curve, synthetic_vessel
 from _data import REAL
+from _docs import figure, table
 from _reference import curve_spline, polyline_distance, rmf_ode, signed_angle, unit, wrap
 
 R0 = 1.5
 
-# README "Accuracy and speed", fit table: vertices, max axis error (% of the radius) and max
-# radius error (%) over the interior 90 %. Measured for issue #12 (helix mesh: 10154 vertices since
-# the synthetic RMF is integrated from its ODE; 10152 before):
+# docs/accuracy.md, fit table: vertices, max axis error (% of the radius) and max radius error (%) over
+# the interior 90 %. Measured for issue #12 (helix mesh: 10154 vertices since the synthetic RMF is
+# integrated from its ODE; 10152 before):
 # 0.164 / 0.102, 0.111 / 0.150, 0.080 / 0.106, 0.759 / 0.132. Each test bound is 1.5 x the figure.
-README_FIT = {
-    "half_circle": (3948, 0.16, 0.10),
-    "helix": (10154, 0.11, 0.15),
-    "s_curve": (5501, 0.08, 0.11),
-    "aortic_arch": (4744, 0.76, 0.13),
-}
+_FIT = table("accuracy.md", "centre line", "vertices", "max axis error (% of radius)")
+DOCS_FIT = {name: (int(figure(_FIT[row][0])), figure(_FIT[row][1]), figure(_FIT[row][2])) for name, row in {
+    "half_circle": "half circle (bend radius 10)", "helix": "helix (1.5 turns)", "s_curve": "S-curve (inflection)",
+    "aortic_arch": "aortic arch (bend radius 3.2 r)"}.items()}
 FACTOR = 1.5
 
 
@@ -66,10 +65,10 @@ def _orient(gc, truth):
 
 
 def test_axis_error_within_readme_figure(fitted):
-    """Exact distance from the fitted axis to the true centre line: README fit table."""
+    """Exact distance from the fitted axis to the true centre line: docs/accuracy.md, fit table."""
     name, ves, gc = fitted
-    n_readme, axis_pct, _ = README_FIT[name]
-    assert abs(len(ves.V) - n_readme) <= 0.05 * n_readme, "not the README's mesh any more"
+    n_readme, axis_pct, _ = DOCS_FIT[name]
+    assert abs(len(ves.V) - n_readme) <= 0.05 * n_readme, "not the documented mesh any more"
     inner = (gc.dense_s > 0.05) & (gc.dense_s < 0.95)
     d = polyline_distance(gc.dense_points[inner], ves.truth.centers)
     assert d.max() <= FACTOR * axis_pct / 100 * R0, f"{name}: axis off by {d.max() / R0:.3%} of the radius"
@@ -78,11 +77,11 @@ def test_axis_error_within_readme_figure(fitted):
 
 
 def test_radius_error_within_readme_figure(fitted):
-    """Perimeter-mean radius (what Eq. 4 estimates) against the truth: README fit table.
+    """Perimeter-mean radius (what Eq. 4 estimates) against the truth: docs/accuracy.md, fit table.
 
     The bounds (0.15-0.23 %) are far below a 0.8 % bias of the radius."""
     name, ves, gc = fitted
-    _, _, radius_pct = README_FIT[name]
+    _, _, radius_pct = DOCS_FIT[name]
     s_true = _orient(gc, ves.truth)
     r_true = np.interp(s_true, ves.truth.s, ves.truth.radii)
     inner = (gc.s > 0.05) & (gc.s < 0.95)
@@ -420,7 +419,7 @@ def test_a_kinked_fit_of_a_sparse_elliptical_section_raises_and_a_stiffer_axis_f
     """Found in the #16 work: the elliptical (0.7) helix meshed with 14 vertices around (3k vertices,
     isotropic remesh) makes the fixed point kink at one node (12 % of the radius off the true axis,
     curvature x radius 1.1-1.4 where a tube allows less than 1). That must raise, not return; the
-    remedy the message names (lam=1.0) fits it within 0.54 % of the radius (README)."""
+    remedy the message names (lam=1.0) fits it within 0.54 % of the radius (docs/method.md)."""
     ves = synthetic_vessel("helix", radius=lambda s: 1.0 + 0.2 * np.sin(2 * np.pi * s), ellipticity=0.7,
                            ellipse_angle=0.4, n_around=14, seed=3)
     with pytest.raises(NotTubularError, match=r"bends tighter than its radius at s = .*lam=1\.0"):

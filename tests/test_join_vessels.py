@@ -615,7 +615,7 @@ def test_the_placement_gap_at_its_edge(coronary, capped_placed, gap, ok):
         res = vg.join_vessels(V, F, 0, Vc, Fc, k, place=gap)
         assert res.axial_stretch == pytest.approx(1.0, abs=0.02)
     else:
-        with pytest.raises(OptionError, match="place must be a gap of zero or more"):
+        with pytest.raises(OptionError, match="is not a gap between the two ends; give zero or more"):
             vg.join_vessels(V, F, 0, Vc, Fc, k, place=gap)
 
 
@@ -641,3 +641,25 @@ def test_real_vessels_in_their_own_coordinates_join_once_placed(moving, end, oth
     assert abs(np.degrees(res.profile.total_twist)) < 1.0
     near_hold = res.profile.s < 0.3
     assert np.ptp(np.degrees(res.profile.alpha[near_hold])) < 0.5
+
+
+def test_cli_place(tmp_path, capsys):
+    """`vesselgp join A --end 0 --onto B --other-end 2 --place 1`: the two real files, in their own coordinates,
+    are joined; result.json says how far the vessel was moved and turned (checked against the two files' end
+    centres: the moved end lands 1 mm in front of the other end); a negative gap is a one-line error naming --place."""
+    out = tmp_path / "placed"
+    assert main(["join", str(CORONARY), "--end", "0", "--onto", str(Y), "--other-end", "2", "--place", "1",
+                 "-o", str(out), "-q", "--no-png", "--n-curve", "3"]) == 0
+    r = json.loads((out / "result.json").read_text())
+    V, F = vg.read_mesh(CORONARY)[:2]
+    Vy, Fy = vg.read_mesh(Y)[:2]
+    e, eo = vg.vessel_ends(V, F)[0], vg.vessel_ends(Vy, Fy)[2]
+    M = np.asarray(r["placement"]["matrix"])
+    assert np.linalg.norm(M[:3, :3] @ e.center + M[:3, 3] - (eo.center + eo.direction)) < 0.05 * e.radius
+    assert r["placement"]["moved_mm"] == pytest.approx(np.linalg.norm(eo.center + eo.direction - e.center), rel=0.02)
+    assert r["axial_stretch"] < 1.1 and (out / "joined_optimum.ply").is_file()
+    capsys.readouterr()
+    assert main(["join", str(CORONARY), "--end", "0", "--onto", str(Y), "--other-end", "2", "--place", "-1",
+                 "-o", str(tmp_path / "neg"), "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--place -1.0 is not a gap" in err and "\n" not in err and not (tmp_path / "neg").exists()

@@ -1,6 +1,6 @@
 """Material torsion (paper Eq. 6-8) against imposed, analytic twists.
 
-Bounds are 1.5 x the figures of README "Accuracy and speed" (issue #12: tests as
+Bounds are 1.5 x the figures of docs/accuracy.md, read from its tables (issue #12: tests as
 strict as the claims); each figure is the worst measured error of its row.
 """
 import numpy as np
@@ -9,9 +9,10 @@ import pytest
 from vesselgp import MismatchError, TorsionMeter, fit_generalized_cylinder, measure_torsion
 from vesselgp.synthetic import deform_synthetic, named_curve, synthetic_vessel
 from _data import REAL
+from _docs import figure, figures, table
 
 R0 = 1.5
-FACTOR = 1.5  # test bound / README figure
+FACTOR = 1.5  # test bound / documented figure
 
 
 def smoothstep(x):
@@ -52,20 +53,20 @@ PAIRS = [  # (rest, deformed): shapes differ in bending too
     ("s_curve", "arc"),
 ]
 
-# README torsion table, per pair: max alpha error over the four twists (degrees), max energy
+# docs/accuracy.md torsion table, per pair: max alpha error over the four twists (degrees), max energy
 # error (%), and the total twist measured under pure bending (degrees). Measured for issue #12:
 #   straight -> arch   0.176, 0.293 (ramp), 0.0081
 #   arch -> helix      0.432, 0.752 (ramp), 0.0474
 #   arc -> S-curve     0.080, 0.152 (sinusoid), 0.0071
 #   helix -> straight  0.060, 0.095 (uniform 40 degrees; 0.039 without it), 0.0152
 #   S-curve -> arc     0.082, 0.156 (sinusoid), 0.0089
-README_TORSION = {
-    ("straight", "aortic_arch"): (0.18, 0.29, 0.008),
-    ("aortic_arch", "helix"): (0.43, 0.75, 0.047),
-    ("arc", "s_curve"): (0.08, 0.15, 0.007),
-    ("helix", "straight"): (0.06, 0.09, 0.015),
-    ("s_curve", "arc"): (0.08, 0.16, 0.009),
-}
+_TORSION = table("accuracy.md", "rest -> deformed", "max alpha error, worst twist (deg)")
+DOCS_TORSION = {pair: tuple(figure(c) for c in _TORSION[row][:3]) for pair, row in {
+    ("straight", "aortic_arch"): "straight -> aortic arch",
+    ("aortic_arch", "helix"): "aortic arch -> helix",
+    ("arc", "s_curve"): "half circle -> S-curve",
+    ("helix", "straight"): "helix -> straight",
+    ("s_curve", "arc"): "S-curve -> half circle"}.items()}
 
 
 @pytest.fixture(scope="module")
@@ -101,7 +102,7 @@ def check_profile(prof, alpha, dalpha, gc, truth, tol_deg, tol_energy_pct):
 
 
 def pair_bounds(pair):
-    a, e, _ = README_TORSION[pair]
+    a, e, _ = DOCS_TORSION[pair]
     return FACTOR * a, FACTOR * e
 
 
@@ -130,17 +131,17 @@ def test_uniform_twist_energy_is_phi_squared(rest_vessels):
 
 @pytest.mark.parametrize("rest_name, def_name", PAIRS)
 def test_pure_bending_has_no_twist(rest_vessels, rest_name, def_name):
-    """README torsion table, last column: the twist measured when only the bending changes."""
+    """docs/accuracy.md torsion table, last column: the twist measured when only the bending changes."""
     ves, gc, meter = rest_vessels[rest_name]
     prof = meter(deform_synthetic(ves, CURVES[def_name]()))
-    bend = README_TORSION[(rest_name, def_name)][2]
+    bend = DOCS_TORSION[(rest_name, def_name)][2]
     assert np.degrees(abs(prof.total_twist)) <= FACTOR * bend, np.degrees(prof.total_twist)
     assert prof.energy <= 1e-3  # measured 1.5e-6 to 2.0e-4; a 10 degree twist has 0.03
     assert prof.alpha[0] == 0.0
 
 
 def test_half_node_smoothing_on_the_synthetic_sweep(rest_vessels):
-    """README: smoothing=0.5 is worse on the synthetic cases, 0.48 degrees worst (arch -> helix;
+    """docs/accuracy.md: smoothing=0.5 is worse on the synthetic cases, 0.48 degrees worst (arch -> helix;
     the default smoothing gives 0.43 there), so it is not the default."""
     ves, gc, _ = rest_vessels["aortic_arch"]
     meter = TorsionMeter(ves.V, ves.F, gc, smoothing=0.5)
@@ -242,7 +243,7 @@ def twist_about_axis(V, gc, alpha):
     return pts + d * np.cos(a) + np.cross(T, d) * np.sin(a) + T * np.einsum("ij,ij->i", T, d)[:, None] * (1 - np.cos(a))
 
 
-# README real-mesh table: per mesh, per twist, (max alpha error in degrees over the interior 90 %,
+# docs/accuracy.md real-mesh table: per mesh, per twist, (max alpha error in degrees over the interior 90 %,
 # relative energy error in %). Looser than the synthetic figures where the data is harder: a
 # 3.2k-vertex coronary with a stenosis (L = 60 r, about 30 vertices per axis node: the recovered
 # axis moves under the twist), and a Y whose paths are only 12.3-12.7 radii long (a ramp over
@@ -264,12 +265,11 @@ REAL_MESHES = {  # name: (file, ends)
     "y_path1": ("vmtk_abdominal_aorta_iliac_bifurcation_open.stl", (0, 1)),
     "y_path2": ("vmtk_abdominal_aorta_iliac_bifurcation_open.stl", (0, 2)),
 }
-README_REAL = {
-    "lumen": {"quarter_ramp": (0.26, 0.6), "uniform_turn": (0.17, 0.09), "sinusoid": (0.12, 0.4)},
-    "coronary": {"quarter_ramp": (0.2, 0.5), "uniform_turn": (1.6, 0.7), "sinusoid": (1.1, 0.4)},
-    "y_path1": {"quarter_ramp": (1.7, 5.4), "uniform_turn": (0.97, 0.41), "sinusoid": (0.85, 2.9)},
-    "y_path2": {"quarter_ramp": (1.8, 5.6), "uniform_turn": (0.6, 0.14), "sinusoid": (0.95, 3.4)},
-}
+_REAL = table("accuracy.md", "real mesh", "vertices")
+DOCS_REAL = {mesh: dict(zip(("quarter_ramp", "uniform_turn", "sinusoid"), (tuple(figures(c)) for c in _REAL[row][1:4])))
+               for mesh, row in {"lumen": "capped lumen segment", "coronary": "coronary with stenosis (L = 60 r)",
+                                 "y_path1": "aorto-iliac Y, aorta -> iliac 1",
+                                 "y_path2": "aorto-iliac Y, aorta -> iliac 2"}.items()}
 
 
 @pytest.fixture(scope="module")
@@ -301,17 +301,17 @@ def real_errors(meter, V, gc, twist):
 @pytest.mark.parametrize("twist", sorted(REAL_TWISTS))
 @pytest.mark.parametrize("mesh", sorted(REAL_MESHES))
 def test_imposed_twist_on_real_meshes(real_meters, mesh, twist):
-    """A known twist about the fitted axis of a segmented vessel is measured back: README table."""
+    """A known twist about the fitted axis of a segmented vessel is measured back: docs/accuracy.md table."""
     V, F, gc, meter = real_meters(mesh)
     assert meter(V).energy < 1e-12
     _, err, rel = real_errors(meter, V, gc, twist)
-    tol_deg, tol_pct = (FACTOR * x for x in README_REAL[mesh][twist])
+    tol_deg, tol_pct = (FACTOR * x for x in DOCS_REAL[mesh][twist])
     assert err <= tol_deg, f"{mesh}: alpha off by {err:.3f} deg (bound {tol_deg:.3g})"
     assert abs(rel) <= tol_pct, f"{mesh}: energy off by {rel:.3f} % (bound {tol_pct:.3g} %)"
 
 
 def test_short_y_path_error_is_the_smoothing(real_meters):
-    """README: on the short Y path the ramp's raw Eq. 7 bins are within 0.6 degrees, and
+    """docs/accuracy.md: on the short Y path the ramp's raw Eq. 7 bins are within 0.6 degrees, and
     smoothing=0.5 brings it to 0.58 degrees and 1.5 % (measured 0.600, 0.58, -1.48 %)."""
     V, F, gc, meter = real_meters("y_path1")
     prof, _, _ = real_errors(meter, V, gc, "quarter_ramp")

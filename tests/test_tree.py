@@ -18,18 +18,23 @@ from vesselgp.branches import branch_decomposition
 from vesselgp.tree import VesselTree, fit_vessel_tree
 
 from _data import REAL
+from _docs import figure, table
 
-# README "Vessel trees" table: worst and mean path-axis error (% of the true radius) away from
-# junctions (2 r) and tips (1.5 r), per tree; the tests assert 1.5 x these figures.
-README_AXIS = {"4 tips": (0.043, 0.0024), "3 tips": (0.043, 0.0024), "8 tips": (0.042, 0.0023)}
-README_RADIUS_MAX = {"4 tips": 0.045, "3 tips": 0.057, "8 tips": 0.078}  # % worst radius error, same stretch
-README_JUNCTION = 0.15        # junction distance from the true one, in parent end radii
-# README "segmentation-like tree" (Accuracy and speed): the voxel staircase of the 4-tip tree (voxel 0.4) smoothed by
+# docs/accuracy.md "Vessel trees" table, per tree: worst and mean path-axis error (% of the true radius) away
+# from junctions (2 r) and tips (1.5 r), worst radius error (%, same stretch), junction distance from the true
+# one (parent end radii); the tests assert 1.5 x these figures.
+_TREES = {name: [figure(c) if c else None for c in cells]
+          for name, cells in table("accuracy.md", "tree", "vertices", "path axis, worst (%)").items()}
+_ROW = {"4 tips": "4 tips (2 levels)", "3 tips": "3 tips (one child splits again)", "8 tips": "8 tips (3 levels)"}
+DOCS_AXIS = {name: tuple(_TREES[row][1:3]) for name, row in _ROW.items()}
+DOCS_RADIUS_MAX = {name: _TREES[row][3] for name, row in _ROW.items()}
+DOCS_JUNCTION = max(_TREES[row][4] for row in _ROW.values())  # one bound for the three trees
+# docs/accuracy.md "segmentation-like tree" (prose under the table): the voxel staircase of the 4-tip tree (voxel 0.4) smoothed by
 # clean_mesh(smooth=10); worst and worst mean path-axis error (% r), same stretch
-README_STAIRCASE_AXIS = (3.25, 0.72)
+DOCS_STAIRCASE_AXIS = (3.25, 0.72)
 
 
-@pytest.fixture(scope="module", params=list(README_AXIS))
+@pytest.fixture(scope="module", params=list(DOCS_AXIS))
 def fitted(request):
     kw = {"4 tips": dict(levels=2, target_vertices=27000), "3 tips": dict(parents=THREE_TIP_PARENTS, voxel=0.4),
           "8 tips": dict(levels=3, voxel=0.3)}[request.param]
@@ -63,7 +68,7 @@ def test_every_end_and_the_true_topology(fitted):
 def test_path_axes_lie_on_the_true_centre_lines(fitted):
     """Issue target: within 5 % of the radius at worst and 1 % on average, away from junctions and tips."""
     name, t, tree = fitted
-    worst, mean = README_AXIS[name]
+    worst, mean = DOCS_AXIS[name]
     for p in tree.paths:
         P = p.dense_points
         d, r, _, _ = t.truth.nearest(P)
@@ -73,7 +78,7 @@ def test_path_axes_lie_on_the_true_centre_lines(fitted):
         assert err.max() <= min(1.5 * worst, 5.0), (p.ends, err.max())
         assert err.mean() <= min(1.5 * mean, 1.0), (p.ends, err.mean())
         rad = 100 * np.abs(p.radius_at(p.dense_s)[keep] - r[keep]) / r[keep]
-        assert rad.max() <= 1.5 * README_RADIUS_MAX[name], (p.ends, rad.max())
+        assert rad.max() <= 1.5 * DOCS_RADIUS_MAX[name], (p.ends, rad.max())
         # the path runs from the root's centre to the tip's
         tip = t.truth.ends[_truth_end(t, tree.ends[p.ends[1]])]
         assert np.linalg.norm(P[0] - t.truth.ends[0].center) < 0.05 * t.truth.ends[0].radius
@@ -89,7 +94,7 @@ def test_paths_of_a_smoothed_voxel_staircase_lie_on_the_true_centre_lines():
     V, F, _ = vesselgp.clean_mesh(t.V, t.F, smooth=10)
     tree = fit_vessel_tree(V, F)
     assert len(tree.paths) == len(t.truth.tips)
-    worst, mean = README_STAIRCASE_AXIS
+    worst, mean = DOCS_STAIRCASE_AXIS
     for p in tree.paths:
         d, r, _, _ = t.truth.nearest(p.dense_points)
         keep = t.truth.interior_mask(p.dense_points)
@@ -116,7 +121,7 @@ def test_junctions_are_where_the_true_centre_lines_meet(fitted):
     J, R = t.truth.junctions
     for q in tree.junctions:
         k = int(np.argmin(np.linalg.norm(J - q, axis=1)))
-        assert np.linalg.norm(J[k] - q) <= 1.5 * README_JUNCTION * R[k]
+        assert np.linalg.norm(J[k] - q) <= 1.5 * DOCS_JUNCTION * R[k]
     # each junction is where its branch ends and its children start
     for q, b in zip(tree.junctions, tree.junction_branch):
         assert np.allclose(tree.branches[b].centers[-1], q, atol=1e-9 * np.abs(q).max())
@@ -150,7 +155,7 @@ def test_child_frames_start_from_the_parents_frame(fitted):
         j = int(np.argmin(np.linalg.norm(path.dense_points - pt[0], axis=1)))
         assert np.linalg.norm(path.dense_points[j] - pt[0]) < 0.1 * leaf.mean_radius  # a dense sample apart
         ang = np.degrees(np.arccos(np.clip(path.dense_frames[j, 1] @ fr[0, 1], -1, 1)))
-        # README: 2 degrees (1 until issue #34: a child led in along its centre line turns through its
+        # docs/accuracy.md: 2 degrees (1 until issue #34: a child led in along its centre line turns through its
         # junction zone on another curve than the path's rounded chain; 1.0 / 1.1 / 2.0 degrees on the
         # 4- / 3- / 8-tip trees)
         assert ang < 1.5 * 2.0, (path.ends, ang)
@@ -304,7 +309,7 @@ def test_paths_of_a_fine_tree_stay_on_the_true_centre_lines(fine_tree):
         d, r, _, _ = t.truth.nearest(p.dense_points)
         keep = t.truth.interior_mask(p.dense_points)
         err = 100 * d[keep] / r[keep]
-        assert err.max() <= 1.5 * README_AXIS["4 tips"][0] and err.mean() <= 1.5 * README_AXIS["4 tips"][1]
+        assert err.max() <= 1.5 * DOCS_AXIS["4 tips"][0] and err.mean() <= 1.5 * DOCS_AXIS["4 tips"][1]
 
 
 def test_torsion_along_a_tree_path_of_the_real_y():
@@ -386,7 +391,7 @@ def test_every_branch_of_a_finer_smoothed_staircase_converges(caplog):
         tree = fit_vessel_tree(V, F)
     assert all(b.converged and b.iterations < 20 for b in tree.branches), [b.iterations for b in tree.branches]
     assert not [r for r in caplog.records if "did not converge" in r.getMessage()]
-    worst, mean = README_STAIRCASE_AXIS
+    worst, mean = DOCS_STAIRCASE_AXIS
     for p in tree.paths:
         d, r, _, _ = t.truth.nearest(p.dense_points)
         keep = t.truth.interior_mask(p.dense_points)
@@ -483,18 +488,19 @@ def test_junction_is_where_the_branch_lines_meet_held_within_the_zone(off):
 
 #: Anatomy the binary synthetic trees do not show (issue #34): three children off one junction (the arch's
 #: branches, a left main's trifurcation) and two thin children (0.45 of the trunk's radius) leaving it at 85
-#: degrees. README figures: path axis worst / mean (% r), radius worst (%), junction (parent radii).
-README_ANATOMY = {"trifurcation": (dict(parents=(-1, 0, 0, 0), voxel=0.4, taper=0.5, branch_angle_deg=70.0),
-                                   0.039, 0.0018, 0.040, 0.088),
-                  "thin at 85 deg": (dict(parents=(-1, 0, 0), voxel=0.35, taper=0.45, branch_angle_deg=85.0),
-                                     0.059, 0.0026, 0.036, 0.16)}
+#: degrees. docs/accuracy.md tree table: path axis worst / mean (% r), radius worst (%), junction (parent radii).
+DOCS_ANATOMY = {
+    "trifurcation": (dict(parents=(-1, 0, 0, 0), voxel=0.4, taper=0.5, branch_angle_deg=70.0),
+                     *_TREES["trifurcation (3 children off one junction, 70 deg)"][1:5]),
+    "thin at 85 deg": (dict(parents=(-1, 0, 0), voxel=0.35, taper=0.45, branch_angle_deg=85.0),
+                       *_TREES["two thin children (0.45 of the trunk) at 85 deg"][1:5])}
 
 
-@pytest.mark.parametrize("name", list(README_ANATOMY))
+@pytest.mark.parametrize("name", list(DOCS_ANATOMY))
 def test_a_trifurcation_and_thin_branches_at_right_angles(name):
-    """One junction with all its children, every path on the true centre lines (within 1.5x the README's
+    """One junction with all its children, every path on the true centre lines (within 1.5x the documented
     figures, away from junctions and tips), the radius true, the junction where the true centre lines meet."""
-    kw, worst, mean, radius, junction = README_ANATOMY[name]
+    kw, worst, mean, radius, junction = DOCS_ANATOMY[name]
     t = synthetic_tree(**kw)
     tree = fit_vessel_tree(t.V, t.F)
     assert len(tree.paths) == len(kw["parents"]) - 1 and len(tree.junctions) == 1
@@ -511,9 +517,9 @@ def test_a_trifurcation_and_thin_branches_at_right_angles(name):
     assert all(len(z) == 0 for z in tree.medial_zones) and tree.bulges == ()
 
 
-#: README: the 4-tip tree with two tips cut off and capped flat (0.3 and 1.2 radii behind the dome): path axis
-#: worst / mean (% r), measured on all four paths.
-README_CAPPED_TIPS = (0.040, 0.0023)
+#: docs/accuracy.md tree table: the 4-tip tree with two tips cut off and capped flat (0.3 and 1.2 radii behind the
+#: dome): path axis worst / mean (% r), measured on all four paths.
+DOCS_CAPPED_TIPS = tuple(_TREES["4 tips, two of them cut off and capped flat"][1:3])
 
 
 def test_a_tree_with_capped_tips_keeps_its_accuracy():
@@ -527,7 +533,7 @@ def test_a_tree_with_capped_tips_keeps_its_accuracy():
         V, F, _ = clip_and_cap(V, F, e.center, e.direction, e.radius, behind=0.3 + 0.9 * i)
     tree = fit_vessel_tree(V, F)
     assert sorted(e.kind for e in tree.ends) == ["cap", "cap", "open", "rounded", "rounded"]
-    worst, mean = README_CAPPED_TIPS
+    worst, mean = DOCS_CAPPED_TIPS
     for p in tree.paths:
         P = p.dense_points
         d, r, _, _ = t.truth.nearest(P)

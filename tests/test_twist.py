@@ -17,14 +17,19 @@ import vesselgp as vg
 from vesselgp.cli import main
 from vesselgp.errors import EndsError
 from vesselgp.synthetic import synthetic_vessel, twist_pair
+from _docs import figure, table
 
 SEG_TOL_DEG = 2.0  # the target, per segment and for the total
 
-#: README: worst segment error and total error (degrees) of each pair, asserted within 1.5x (totals under
-#: 0.1 degree within 0.1: a rounding's worth)
-README_TWIST = {"4 branches, 60 deg, 13 % shorter": (1.23, 0.52), "3 branches, -80 deg, 10 % shorter": (1.18, 0.81),
-                "5 branches, 120 deg, 15 % shorter": (0.49, -0.07), "4 branches, non-uniform twist": (0.47, -0.02),
-                "6 branches, gentle vs strong bends": (0.84, -0.48)}
+#: docs/accuracy.md, twist table: worst segment error and total error (degrees) of each pair, asserted within
+#: 1.5x (totals under 0.1 degree within 0.1: a rounding's worth); the pairs by their rows there
+_TWIST = table("accuracy.md", "pair", "worst segment error (deg)", "total error (deg)")
+DOCS_TWIST = {name: (figure(_TWIST[row][0]), figure(_TWIST[row][1])) for name, row in {
+    "4 branches, 60 deg, 13 % shorter": "4 branches, 60 deg, 13 % shorter",
+    "3 branches, -80 deg, 10 % shorter": "3 branches, -80 deg, 10 % shorter",
+    "5 branches, 120 deg, 15 % shorter": "5 branches, 120 deg, 15 % shorter",
+    "4 branches, non-uniform twist": "4 branches, non-uniform twist",
+    "6 branches, gentle vs strong bends": "6 branches, 45 deg, bends 10 and 40 deg"}.items()}
 
 PAIRS = {
     "3 branches, -80 deg, 10 % shorter": dict(n_branches=3, twist_deg=-80.0, stretch=0.9, seed=5),
@@ -49,13 +54,13 @@ def pairs():
     return get
 
 
-@pytest.mark.parametrize("name", list(README_TWIST))
+@pytest.mark.parametrize("name", list(DOCS_TWIST))
 def test_segment_twists_match_the_imposed_twist(pairs, name):
     p, r = pairs(name)
     k = len(p.s_a)
     assert len(r.s_a) == k and len(r.unmatched_a) == 0 and len(r.unmatched_b) == 0  # every landmark matched
     err = np.degrees(r.segment_twist - p.segment_twist)
-    seg, total = README_TWIST[name]
+    seg, total = DOCS_TWIST[name]
     assert np.all(np.abs(err) <= min(1.5 * seg, SEG_TOL_DEG)), err
     assert abs(np.degrees(r.total_twist - p.total_twist)) <= min(max(1.5 * abs(total), 0.1), SEG_TOL_DEG)
     # landmarks where the true junctions are, arc lengths and stretch as built

@@ -185,3 +185,19 @@ def test_pyvista_reads_the_centre_lines(tree_vtp, tmp_path):
     write_centerlines(tmp_path / "tree.vtp", centerline_network(tree, t.V, t.F))
     net = pyvista.read(tmp_path / "tree.vtp")
     assert net.n_lines == 6 and "Abscissas" in net.point_data and "GroupIds" in net.cell_data
+
+
+def test_the_ply_copies_open_in_vtk_too(cli_runs):
+    """MeshLab's PLY copies are read by VTK's own PLY reader as the same meshes (points, faces, colours)."""
+    d = cli_runs
+    for ply, vtp in [(d / "fit" / "mesh_radius.ply", d / "fit" / "mesh_radius.vtp"),
+                     (d / "tree" / "mesh_branches.ply", d / "tree" / "mesh_branches.vtp"),
+                     (d / "tor" / "deformed_twist.ply", d / "tor" / "deformed_twist.vtp")]:
+        r = vtk.vtkPLYReader()
+        r.SetFileName(str(ply))
+        r.Update()
+        a, b = r.GetOutput(), read_vtp(vtp)
+        assert a.GetNumberOfPoints() == b.GetNumberOfPoints() and a.GetNumberOfPolys() == b.GetNumberOfPolys()
+        assert np.allclose(vtk_to_numpy(a.GetPoints().GetData()), vtk_to_numpy(b.GetPoints().GetData()), atol=1e-6)
+        rgb = vtk_to_numpy(a.GetPointData().GetScalars())
+        assert rgb.shape == (a.GetNumberOfPoints(), 3) and np.array_equal(rgb, arrays(b.GetPointData())["Colors"])

@@ -73,8 +73,8 @@ run 'vesselgp <command> --help' for the options of a command.""",
   vesselgp batch cohort.csv -o results --scheduler tcp://10.0.0.5:8786 --timeout 600
 
 a cluster: 'dask scheduler' on one machine, 'dask worker tcp://HOST:8786 --nthreads 1' on each
-of the others (each with vesselgp installed and the meshes at the same paths; the README gives
-the workers' malloc setting, without which a fit runs 1.6x slower).""",
+of the others (each with vesselgp installed and the meshes at the same paths; docs/api.md, Cohorts,
+gives the workers' malloc setting, without which a fit runs 1.6x slower).""",
     "clean": """examples:
   vesselgp clean segmentation.stl -o cleaned --json
   vesselgp clean voxel_staircase.stl --smooth 20 --units m -o cleaned""",
@@ -293,7 +293,7 @@ def _cmd_join_vessels(args):
     inp = pipeline.join_vessels_inputs(
         args.vessel, args.onto, args.end, other_end, hold=None if args.hold is None else _hold(args.hold),
         method=args.method, max_stretch=args.max_stretch, moving_normal=args.moving_normal,
-        target_normal=args.target_normal, units=args.units, scale=args.scale)
+        target_normal=args.target_normal, units=args.units, scale=args.scale, place=args.place)
     out = _output(args, inp["inputs"])
     out.check(pipeline.JOIN_FILES)
     r = pipeline.run_join_vessels(out.dir, inp["join"], name=Path(args.vessel).stem, n_curve=args.n_curve,
@@ -432,8 +432,9 @@ def _add_fit(sub, fmt):
     p.add_argument("--nodes", type=int, help="number of axis nodes (default: one per half radius)")
     p.add_argument("--axis-format", choices=("vtp", "ply", "both"), default="both",
                    help="polyline file(s) of the axis (default: both)")
-    p.add_argument("--shade", choices=("theta", "radius", "none"), default="theta",
-                   help="write the mesh coloured by angle about the axis or by distance to it (default: theta)")
+    p.add_argument("--shade", choices=("radius", "theta", "none"), default="radius",
+                   help="write the mesh coloured by its distance to the axis in mm (a stenosis shows dark, a bulge "
+                        "bright) or by its angle about the axis (default: radius)")
     _units_options(p)
     p.add_argument("--no-png", action="store_true", help="do not render PNGs")
     _common(p, "vesselgp-fit")
@@ -488,6 +489,9 @@ def _add_join(sub, fmt):
                         "ring, for the stitched mesh")
     p.add_argument("--hold", help="with --onto: what stays in place, an arc-length fraction next to the other "
                                   f"end (default {tol.JOIN_HOLD_FRACTION}) or vertex ids ('0-99', @file)")
+    p.add_argument("--place", type=float, metavar="GAP",
+                   help="with --onto: first move the vessel rigidly so that its end faces the other end, on its "
+                        "axis, GAP mm in front of it (for two vessels in unrelated coordinates; default: no move)")
     p.add_argument("--max-stretch", type=float, default=tol.JOIN_MAX_STRETCH,
                    help="with --onto: refuse a target that stretches the free part more (default: %(default)s)")
     p.add_argument("--moving-normal", type=float, nargs=3, metavar=("X", "Y", "Z"),
@@ -651,6 +655,7 @@ OPTION_OF_KEYWORD = {
     "fit": {"ends": "--ends", "n_nodes": "--nodes"},
     "torsion": {"ends": "--ends"},
     "join": {"end": "--end", "other_end": "--other-end", "hold": "--hold", "max_stretch": "--max-stretch",
+             "place": "--place",
              "moving_normal": "--moving-normal", "target_normal": "--target-normal"},
     "twist": {"ends_a": "--ends-a", "ends_b": "--ends-b"},
     "batch": {"workers": "--workers"},

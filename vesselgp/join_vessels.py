@@ -167,7 +167,7 @@ def _placed(V, ends, end, other, gap):
     """
     gap = float(gap)
     if not (np.isfinite(gap) and gap >= 0.0):
-        raise OptionError(f"place must be a gap of zero or more (mesh units) between the two ends, got {gap!r}")
+        raise OptionError(f"place={gap!r} is not a gap between the two ends; give zero or more (mesh units)")
     e = ends[end]
     d_o = np.asarray(other.direction, float) / np.linalg.norm(other.direction)
     R = minimal_rotation(np.asarray(e.direction, float) / np.linalg.norm(e.direction), -d_o).as_matrix()

@@ -23,7 +23,6 @@ import json
 import logging
 import math
 import os
-import tempfile
 import time
 from dataclasses import asdict, replace
 from pathlib import Path
@@ -47,8 +46,8 @@ from .rotations import wrap_angle
 from .synthetic import deform_synthetic, paper_case, synthetic_vessel
 from .torsion import TorsionMeter
 from .twist import twist_between
-from .viz import (compose_side_by_side, plot_cumulative_twist, plot_energy_curve, plot_torsion_profile, render_mesh,
-                  torsion_colors)
+from .viz import (ENERGY_IN_WORDS, plot_cumulative_twist, plot_energy_curve, plot_torsion_profile, render_mesh,
+                  render_panels, first_colors, torsion_colors)
 
 log = logging.getLogger(__name__)
 
@@ -322,6 +321,8 @@ def profile_to_dict(prof):
 def summary_table(cases):
     """Plain-text table (case, optimum angle, energy, evaluations, time) of demo/join results.
 
+    The first column is as wide as the longest name (at least 8 characters): names are never cut.
+
     Examples
     --------
     >>> print(summary_table([{"name": "case 1", "optimum_angle_deg": -179.8, "energy": 4.6e-7,
@@ -329,12 +330,13 @@ def summary_table(cases):
     case     angle (deg)     energy  evals  setup (s)  search (s)
     case 1        -179.8    4.6e-07      9       0.20        0.70
     """
-    rows = ["{:<8} {:>11} {:>10} {:>6} {:>10} {:>11}".format(
-        "case", "angle (deg)", "energy", "evals", "setup (s)", "search (s)")]
+    n = max([8] + [len(str(c["name"])) for c in cases])
+    rows = ["{:<{n}} {:>11} {:>10} {:>6} {:>10} {:>11}".format(
+        "case", "angle (deg)", "energy", "evals", "setup (s)", "search (s)", n=n)]
     for c in cases:
-        rows.append("{:<8} {:>11.1f} {:>10.3g} {:>6d} {:>10.2f} {:>11.2f}".format(
-            str(c["name"])[:8], c["optimum_angle_deg"], c["energy"], int(c["n_evals"]),
-            c["setup_time_s"], c["time_s"]))
+        rows.append("{:<{n}} {:>11.1f} {:>10.3g} {:>6d} {:>10.2f} {:>11.2f}".format(
+            str(c["name"]), c["optimum_angle_deg"], c["energy"], int(c["n_evals"]),
+            c["setup_time_s"], c["time_s"], n=n))
     return "\n".join(rows)
 
 
@@ -351,7 +353,7 @@ def _progress_iter(progress, it, desc):
 # ----------------------------------------------------------------------------- fit, torsion
 
 
-def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="theta", units=None, scale=None,
+def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="radius", units=None, scale=None,
             render=True):
     """Fit a generalized cylinder to a mesh file and write ``axis.*`` and the shaded mesh into ``out``.
 
@@ -365,7 +367,8 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
     ends : (int, int), optional
     n_nodes : int, optional
     axis_format : {"vtp", "ply", "both"}
-    shade : {"theta", "radius", "none"}
+    shade : {"radius", "theta", "none"}
+        The shaded mesh's quantity: distance to the axis (mm) or angle about it (degrees).
     units : {"mm", "cm", "m", "um"}, optional
         Length unit of the mesh file (default: millimetres).
     scale : float, optional
@@ -399,9 +402,14 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
         if shade == "theta":
             val, lo, hi, cmap = theta, -180.0, 180.0, "twilight"
             label = "angle \u03b8 about the axis (deg)"
+            caption = (f"Black line: the fitted axis. Colour: each vertex's angle \u03b8 about it, from the axis "
+                       f"frame's U direction (0), right-handed about the axis from end {gc.ends[0]} to end "
+                       f"{gc.ends[1]}.")
         else:
             val = dist
             lo, hi, cmap, label = float(val.min()), float(val.max()), "viridis", "distance to the axis (mm)"
+            caption = ("Black line: the fitted axis. Colour: each vertex's distance to it in mm: a narrowing "
+                       "(stenosis) shows dark, a bulge bright.")
         others = {"s": gc.vertex_s, "theta": theta, "radius": dist}
         _write_shaded(out, f"mesh_{shade}", V, F, torsion_colors(val, lo, hi, cmap),
                       {shade: val, **{k: v for k, v in others.items() if k != shade}})
@@ -409,7 +417,8 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="th
             render_mesh(out(f"mesh_{shade}.png"), V, F, val, vmin=lo, vmax=hi, cmap=cmap, cbar_label=label,
                         title=f"{Path(mesh).name}: generalized cylinder, length {gc.length:.4g} mm, "
                               f"mean radius {gc.mean_radius:.3g} mm",
-                        period=360.0 if shade == "theta" else None, lines=[gc.dense_points])
+                        period=360.0 if shade == "theta" else None, lines=[gc.dense_points], caption=caption,
+                        scale_bar="mm")
     if render:
         dist = np.hypot(gc.vertex_local[:, 1], gc.vertex_local[:, 2])
         write_report_html(out("report.html"), f"{Path(mesh).name}: generalized cylinder",
@@ -505,10 +514,15 @@ def run_fit_tree(V, F, mesh, out, ends, uinfo, *, axis_format="both", render=Tru
     cmap, shade = f"tab{ncol}", np.mod(vb, ncol)
     _write_shaded(out, "mesh_branches", V, F, torsion_colors(shade, -0.5, ncol - 0.5, cmap), {"branch": vb})
     if render:
-        render_mesh(out("tree.png"), V, F, shade, vmin=-0.5, vmax=ncol - 0.5, cmap=cmap,
-                    cbar_label="branch", alpha=tol.VIZ_TREE_ALPHA, lines=[gc.dense_points for gc in tree.branches],
-                    title=f"{Path(mesh).name}: {len(tree.branches)} branches, {len(tree.junctions)} junctions, "
-                          f"{len(tree.paths)} paths")
+        nb, nj = len(tree.branches), len(tree.junctions)
+        used = min(nb, ncol)  # the colour bar shows the colours in use (the same as mesh_branches.ply's)
+        render_mesh(out("tree.png"), V, F, shade, vmin=-0.5, vmax=used - 0.5, cmap=first_colors(cmap, used),
+                    cbar_label="branch (id in tree.json)", alpha=tol.VIZ_TREE_ALPHA,
+                    lines=[gc.dense_points for gc in tree.branches], cbar_ticks=range(used), scale_bar="mm",
+                    title=f"{Path(mesh).name}: {nb} branch{'es' * (nb != 1)}, {nj} junction{'s' * (nj != 1)}, "
+                          f"{len(tree.paths)} paths; axes {sum(gc.length for gc in tree.branches):.0f} mm in all",
+                    caption=f"Black lines: the branch axes; the translucent surface is coloured by branch. The "
+                            f"paths run from end {tree.root} (the widest) to each other end.")
         from scipy.spatial import cKDTree
 
         axes = np.vstack([gc.dense_points for gc in tree.branches])
@@ -567,9 +581,15 @@ def run_torsion(rest, deformed, out, *, smoothing=None, ends=None, units=None, s
     _write_centerlines(out, "axis", centerline_network(rest_fit, V0, F0,
                                                        twist=lambda b, s: np.interp(s, prof.s, prof.alpha)), "vtp")
     if render:
-        render_mesh(out("deformed_twist.png"), V1, F1, al,
-                    title=f"twist {np.degrees(prof.total_twist):.1f}\u00b0, E = {prof.energy:.3g} (Eq. 8)")
-        plot_torsion_profile(out("profile.png"), prof)
+        e0, e1 = rest_fit.ends
+        render_mesh(out("deformed_twist.png"), V1, F1, al, cbar_label=f"material twist \u03b1 (deg), 0 at end {e0}",
+                    title=f"{Path(deformed).name}: material twist {np.degrees(prof.total_twist):+.1f}\u00b0 from end "
+                          f"{e0} to end {e1} over {prof.length:.3g}\u00a0mm; E\u00a0=\u00a0{prof.energy:.3g}\u00a0rad\u00b2 "
+                          f"(Eq.\u00a08)",
+                    caption=f"Colour: each cross-section's material twist \u03b1 about the axis against "
+                            f"{Path(rest).name}, 0 (white) at end {e0}; red turns right-handed about the axis "
+                            f"pointing from end {e0} to end {e1}, blue left-handed.", scale_bar="mm")
+        plot_torsion_profile(out("profile.png"), prof, origin=f"end {e0}")
         m = max(float(np.max(np.abs(al))), tol.VIZ_MIN_RANGE)
         write_report_html(out("report.html"), f"{Path(deformed).name}: material torsion against {Path(rest).name}",
                           [ViewMesh(V1, F1, al, label="material twist \u03b1 (deg)", cmap="RdBu_r", vrange=(-m, m))],
@@ -645,9 +665,18 @@ def _join_search(V, F, fixed, moving, target, method, ends, moving_normal):
     return problem, res, {"setup_time_s": t1 - t0, "time_s": time.perf_counter() - t1}
 
 
-def _twist_relative_to_held(prof, fixed):
-    """Vertex twist in degrees relative to the held part (alpha(0) = 0 at s = 0 may be the moving end)."""
-    return np.degrees(prof.vertex_alpha - np.median(prof.vertex_alpha[fixed]))
+def _toward_joined_end(problem):
+    """+1 when the joined end lies at larger ``s`` of the rest fit than the held part, else -1: the sign that
+    turns the fit's alpha into twist right-handed about the axis pointing from the held part to the joined end
+    (so turning the joined end by a positive angle twists it positively, red, whichever end s = 0 is)."""
+    s = problem.gc.vertex_s
+    return 1.0 if np.mean(s[problem.moving]) >= np.mean(s[problem.fixed]) else -1.0
+
+
+def _twist_relative_to_held(prof, fixed, toward=1.0):
+    """Vertex twist in degrees relative to the held part (0 there; alpha(0) = 0 at s = 0 may be the moving end),
+    times ``toward`` (:func:`_toward_joined_end`)."""
+    return toward * np.degrees(prof.vertex_alpha - np.median(prof.vertex_alpha[fixed]))
 
 
 def wrap_deg(a):
@@ -678,21 +707,34 @@ def _marks(problem, X, angle):
     return [ring, np.stack([o, o + r * problem.target.normal]), np.stack([o, o + 0.8 * r * m])]
 
 
-def _write_join_states(out, F, states, m, others, name, large_deg, prefix, render, problem):
-    """Shaded meshes, renders and profiles of the optimum and the large-torsion state."""
+#: Caption of the join renders: what the colours, zero and the lines mean.
+JOIN_RENDER_CAPTION = (
+    "Colour: each cross-section's material twist \u03b1 relative to the held part (0, white); red turns "
+    "right-handed about the axis pointing towards the joined end, blue left-handed. Sand: the vessel joined to. "
+    "Black at the joined end: its ring (the seam), the target normal (long tick) and where the anchor went "
+    "(short tick).")
+
+
+def _write_join_states(out, F, states, m, others, name, large_deg, prefix, render, problem, toward=1.0):
+    """Shaded meshes, renders and profiles of the optimum and the large-torsion state (twist ``al`` of each
+    relative to the held part, oriented by ``toward``, :func:`_toward_joined_end`)."""
     files = {}
-    label = "material twist \u03b1 (deg)"
+    label = "material twist \u03b1 (deg), 0 at the held part"
     for key, X, al, prof, ang in states:
         _write_shaded(lambda name: out / name, key, X, F, torsion_colors(al, -m, m), {"alpha_deg": al})
         files[f"{key}_mesh"] = prefix + f"{key}.ply"
         files[f"{key}_vtp"] = prefix + f"{key}.vtp"
         if render:
-            what = "minimum torsion" if key == "optimum" else f"large torsion (optimum {large_deg:+.0f}\u00b0)"
+            what = "minimum torsion" if key == "optimum" else f"large torsion, the optimum {large_deg:+.0f}\u00b0"
+            at_end = float(np.median(al[problem.moving]))  # the colour of the joined end
             render_mesh(out / f"{key}.png", X, F, al, vmin=-m, vmax=m, others=others, cbar_label=label,
-                        title=f"{name}: {what}\nturned {wrap_deg(ang):.1f}\u00b0 from the anchor "
-                              f"(ticks: target normal, anchor), E = {prof.energy:.3g}",
-                        lines=_marks(problem, X, ang))
-            plot_torsion_profile(out / f"profile_{key}.png", prof)
+                        title=f"{name}: {what}\njoined end turned {wrap_deg(ang):+.1f}\u00b0 from the anchor;\n"
+                              f"twist there {at_end:+.1f}\u00b0 from the held part; E\u00a0=\u00a0{prof.energy:.3g}\u00a0rad\u00b2",
+                        lines=_marks(problem, X, ang), caption=JOIN_RENDER_CAPTION, scale_bar="mm")
+            plot_torsion_profile(out / f"profile_{key}.png", prof, reverse=toward < 0, origin="the held end",
+                                 zero=float(np.median(prof.vertex_alpha[problem.fixed])),
+                                 title=f"{name}: {what}; twist {np.degrees(prof.total_twist):+.1f}\u00b0 over "
+                                       f"{prof.length:.3g}\u00a0mm, E\u00a0=\u00a0{prof.energy:.3g}\u00a0rad\u00b2 (Eq.\u00a08)")
             files[f"{key}_png"] = prefix + f"{key}.png"
             files[f"profile_{key}_png"] = prefix + f"profile_{key}.png"
     return files
@@ -754,7 +796,7 @@ def run_join(outdir, V, F, fixed, moving, target, *, other=None, name="join", n_
 
 
 def join_vessels_inputs(vessel, onto, end, other_end, *, hold=None, method="rod_arap", max_stretch=None,
-                        moving_normal=None, target_normal=None, units=None, scale=None):
+                        moving_normal=None, target_normal=None, units=None, scale=None, place=None):
     """Read two vessel files and set up their join by end index (:class:`vesselgp.VesselJoin`).
 
     Everything that can refuse the join happens here, before any output is written.
@@ -767,7 +809,7 @@ def join_vessels_inputs(vessel, onto, end, other_end, *, hold=None, method="rod_
     V, F, uinfo = read_mesh_in(vessel, units, scale)
     Vo, Fo, _ = read_mesh_in(onto, units, scale)
     join = VesselJoin(V, F, end, Vo, Fo, other_end, hold=hold, method=method, max_stretch=max_stretch,
-                      moving_normal=moving_normal, target_normal=target_normal)
+                      moving_normal=moving_normal, target_normal=target_normal, place=place)
     return {"join": join, "inputs": [vessel, onto], "units": uinfo}
 
 
@@ -812,6 +854,7 @@ def write_join_outputs(outdir, problem, res, times, *, others=(), joined=None, n
 
     * ``optimum.ply`` / ``.png``: the deformed vessel at the optimum, vertex
       colours from the twist ``alpha`` relative to the held vertices (degrees,
+      right-handed about the axis pointing from the held part to the joined end,
       also stored as the PLY property ``alpha_deg``); ``large_torsion.ply`` / ``.png``: the same at
       ``optimum + large_deg`` (paper Figs. 2-3 (e) and (a, c)); both use one
       colour range; the renders draw the vessel joined to in sand
@@ -819,7 +862,8 @@ def write_join_outputs(outdir, problem, res, times, *, others=(), joined=None, n
       at the target: the target normal (long) and where the moving anchor
       went (short; they coincide at angle 0);
     * ``energy_curve.png`` / ``.csv``: Fig. 4;
-    * ``profile_optimum.png``, ``profile_large_torsion.png``: ``alpha(s)`` and ``alpha'(s)``;
+    * ``profile_optimum.png``, ``profile_large_torsion.png``: ``alpha`` (degrees, 0 at the held part) and its
+      rate (degrees per mm) against the arc length from the held end (mm);
     * ``joined_optimum.ply``: the stitched mesh, when ``joined`` is given.
 
     Parameters
@@ -866,18 +910,23 @@ def write_join_outputs(outdir, problem, res, times, *, others=(), joined=None, n
     t3 = time.perf_counter()
     a_large = res.angle + math.radians(large_deg)
     p_large = problem.profile(a_large)
-    al_opt = _twist_relative_to_held(res.profile, problem.fixed)
-    al_large = _twist_relative_to_held(p_large, problem.fixed)
+    toward = _toward_joined_end(problem)
+    al_opt = _twist_relative_to_held(res.profile, problem.fixed, toward)
+    al_large = _twist_relative_to_held(p_large, problem.fixed, toward)
     m = max(float(np.max(np.abs(al_large))), float(np.max(np.abs(al_opt))), tol.VIZ_MIN_RANGE)
     states = (("optimum", res.V, al_opt, res.profile, res.angle),
               ("large_torsion", problem.deform(a_large), al_large, p_large, a_large))
-    files = _write_join_states(out, problem.F, states, m, list(others), name, large_deg, prefix, render, problem)
+    files = _write_join_states(out, problem.F, states, m, list(others), name, large_deg, prefix, render, problem,
+                               toward)
     write_csv(out / "energy_curve.csv", {"angle_deg": np.degrees(angles), "energy": energies})
     files["energy_curve_csv"] = prefix + "energy_curve.csv"
     if render:
         plot_energy_curve(out / "energy_curve.png", angles, energies, optimum=(res.angle, res.energy),
                           evaluated=(res.angles, res.energies), relative_to=res.angle,
-                          title=f"{name}: torsion energy vs end rotation (Fig. 4)")
+                          title=f"{name}: torsion energy against the rotation of the joined end (paper Fig. 4)",
+                          caption=f"The minimum is the joined end turned {wrap_deg(res.angle):+.1f}\u00b0 from the "
+                                  f"anchor (0: the moving anchor on the target normal; positive: right-handed "
+                                  f"about the target tangent, into the other vessel). " + ENERGY_IN_WORDS)
         files["energy_curve_png"] = prefix + "energy_curve.png"
     if joined is not None:
         files.update(_write_joined(out, joined[0], joined[1], len(res.V), al_opt, m, prefix))
@@ -921,7 +970,8 @@ def _join_report(path, problem, res, al_opt, m, others, name, r, prefix):
         numbers={k: v for k, v in r.items() if k not in ("files",)},
         caption=f"The joined vessel at the end rotation of least torsion ({r['optimum_angle_deg']:+.1f}\u00b0 from the "
                 f"anchor), shaded by its material twist \u03b1 in degrees relative to the held part (0 there): red "
-                f"turns positively about the axis, blue negatively. The vessel joined to is drawn in sand. Energy "
+                f"turns right-handed about the axis pointing towards the joined end, blue left-handed. The vessel "
+                f"joined to is drawn in sand. Energy "
                 f"{r['energy']:.3g} (Eq. 8), total twist {r['total_twist_deg']:+.2f}\u00b0.{moved}")
 
 
@@ -1043,8 +1093,9 @@ def twist_to_dict(r):
 
 def write_twist(out, tw, *, render=True):
     """``twist.json``, ``twist.csv`` (one row per segment) and, with ``render``, ``twist_scans.png``
-    (both scans side by side, landmarks numbered, main axes drawn) and ``twist_profile.png``
-    (cumulative twist against arc length, each segment's value on it).
+    (both scans at one scale, stacked or side by side, each main vessel left to right, landmarks
+    numbered, axes drawn, a scale bar in mm) and ``twist_profile.png`` (cumulative twist against
+    arc length, each segment's value on it).
 
     Parameters
     ----------
@@ -1069,19 +1120,26 @@ def write_twist(out, tw, *, render=True):
         "twist_deg": d["segment_twist_deg"], "twist_deg_per_cm": d["twist_per_length_deg_per_cm"],
         "cumulative_deg": d["cumulative_twist_deg"][1:]})
     if render:
-        with tempfile.TemporaryDirectory(prefix="vesselgp-twist-") as tmp:
-            panels = []
-            for name, (V, F), P, tree, e in (("A", tw["A"], r.landmarks_a, r.tree_a, r.ends_a),
-                                             ("B", tw["B"], r.landmarks_b, r.tree_b, r.ends_b)):
-                panels.append(Path(tmp) / f"scan_{name}.png")
-                render_mesh(panels[-1], V, F, alpha=tol.VIZ_TREE_ALPHA, lines=[b.dense_points for b in tree.branches],
-                            labels=[(p, str(j + 1)) for j, p in enumerate(P)], color=tol.VIZ_OTHER_COLOR,
-                            title=f"scan {name}: main vessel from end {e[0]} to end {e[1]}")
-            compose_side_by_side(out("twist_scans.png"), panels,
-                                 title=f"twist between the scans: total {d['total_twist_deg']:+.1f}\u00b0 over "
-                                       f"{len(r.s_a)} landmarks (side branches)")
+        panels = []
+        for name, (V, F), P, tree, e in (("A", tw["A"], r.landmarks_a, r.tree_a, r.ends_a),
+                                         ("B", tw["B"], r.landmarks_b, r.tree_b, r.ends_b)):
+            panels.append({"V": V, "F": F, "alpha": tol.VIZ_TREE_ALPHA, "color": tol.VIZ_OTHER_COLOR,
+                           "lines": [b.dense_points for b in tree.branches],
+                           "labels": [(p, str(j + 1)) for j, p in enumerate(P)],
+                           "right": tree.ends[e[1]].center - tree.ends[e[0]].center,
+                           "title": f"scan {name}: main vessel from end {e[0]} (left) to end {e[1]} (right), "
+                                    f"{r.length_a if name == 'A' else r.length_b:.0f} mm"})
+        sense = f"right-handed about scan A's main axis from end {r.ends_a[0]} to end {r.ends_a[1]}"
+        render_panels(out("twist_scans.png"), panels, scale_bar="mm",
+                      title=f"twist between the scans: total {d['total_twist_deg']:+.1f}\u00b0 over "
+                            f"{len(r.s_a)} landmarks (side branches)",
+                      caption=f"Both scans at one scale, seen side-on. Numbers: the side branches (landmarks), "
+                              f"matched in order along the main vessel; black: the fitted axes. Twist: the turn of "
+                              f"the landmarks' directions about the main axis from scan A to scan B, {sense}.")
         plot_cumulative_twist(out("twist_profile.png"), r.s_a, d["cumulative_twist_deg"],
-                              segment_deg=d["segment_twist_deg"])
+                              segment_deg=d["segment_twist_deg"],
+                              caption=f"0 at landmark 1 (the first side branch from end {r.ends_a[0]}); each number on "
+                                      f"the line is that segment's twist; positive: {sense}.")
     return d
 
 

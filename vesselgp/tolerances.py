@@ -326,6 +326,14 @@ VIZ_SCALAR_SEARCH_PERCENT = 100.0
 VIZ_DPI = 110
 #: Width (inches) of a mesh render.
 VIZ_FIG_WIDTH = 8.0
+#: Smallest width (inches) of a mesh render: a tall vessel still gets room for its title.
+VIZ_MIN_FIG_WIDTH = 5.0
+#: Margin of a render around the vessel's projected extent, a fraction of its larger side.
+VIZ_FRAME_MARGIN = 0.03
+#: A scale bar is the largest 1, 2 or 5 times a power of ten mm up to this fraction of the picture's width.
+VIZ_SCALE_BAR_FRACTION = 0.2
+#: Largest width/height (and height/width) ratio of a picture of several scans (``twist_scans.png``).
+VIZ_PANELS_MAX_ASPECT = 2.5
 #: Points of the energy curve (paper Fig. 4) written by the demo and `vesselgp join`.
 DEMO_CURVE_POINTS = 25
 #: Half-width (degrees) of the energy curve about the optimum.

@@ -9,12 +9,17 @@ written atomically (temporary file in the target folder, then
 
 * :func:`torsion_colors` maps per-vertex twist to RGB (symmetric range about 0).
 * :func:`render_mesh` draws a mesh side-on (camera from its principal axes),
-  flat-shaded per face, with a colour bar in degrees (paper Figs. 2-3).
+  flat-shaded per face, framed on its projected extent, with a colour bar in
+  degrees (paper Figs. 2-3), an optional scale bar and caption.
+* :func:`render_panels` draws several meshes at one scale, stacked or side by
+  side, with one scale bar (two scans of one vessel).
 * :func:`plot_energy_curve` draws the torsion energy (Eq. 8) against the end
   rotation with the optimum marked and a quadratic fit (paper Fig. 4).
-* :func:`plot_torsion_profile` draws ``alpha(s)`` (Eq. 7) and ``alpha'(s)``.
+* :func:`plot_torsion_profile` draws ``alpha`` (Eq. 7) and its rate against the
+  arc length in mm, with a caption that says what zero is and what the energy means.
 
-Angles are radians in the API and degrees in every figure.
+Angles are radians in the API and degrees in every figure. Titles and captions
+are wrapped to the figure's width, never cut.
 """
 from __future__ import annotations
 
@@ -34,6 +39,8 @@ __all__ = [
     "DecimationError",
     "torsion_colors",
     "render_mesh",
+    "render_panels",
+    "first_colors",
     "plot_energy_curve",
     "plot_torsion_profile",
     "view_basis",
@@ -45,6 +52,19 @@ __all__ = [
 # largest height/width ratio for which a render keeps world +z upright.
 _MAX_HEIGHT = 7.0
 _MAX_UPRIGHT_ASPECT = 2.5
+# ... thinnest drawing area of a render (inches) and the shortest one that takes a vertical colour bar
+# (a wider, flatter render gets it horizontal, below the picture)
+_MIN_AXES_HEIGHT = 0.35
+_MIN_VERTICAL_BAR = 2.4
+# font sizes (points) of titles, panel titles and captions
+_TITLE_SIZE, _PANEL_TITLE_SIZE, _CAPTION_SIZE = 11, 10, 8.5
+
+#: What the torsion energy of every figure is, in words (paper Eq. 8).
+ENERGY_IN_WORDS = (
+    "Energy E (paper Eq. 8) = \u222b\u2080\u00b9 \u03b1'(s)\u00b2 ds: the squared rate of twist, with \u03b1 in radians "
+    "and s the arc length divided by the vessel's length (0 to 1), so E is in rad\u00b2 and does not depend on "
+    "the length; a twist of \u03c6 radians spread evenly from end to end gives E = \u03c6\u00b2 "
+    "(90\u00b0: 2.47).")
 
 
 def _figure(figsize):
@@ -63,15 +83,124 @@ def _save_png(fig, path, dpi, **kw):
 
 
 def _colormap(name):
-    """The matplotlib colormap called ``name`` (from the registry, no pyplot)."""
+    """The matplotlib colormap called ``name`` (from the registry, no pyplot), or ``name`` itself when it is
+    a :class:`matplotlib.colors.Colormap`."""
     import matplotlib
+    from matplotlib.colors import Colormap
 
+    if isinstance(name, Colormap):
+        return name
     try:
         return matplotlib.colormaps[name]
     except (KeyError, TypeError):
         raise OptionError(
             f"unknown colormap {name!r}; pass a matplotlib colormap name such as 'coolwarm'"
         ) from None
+
+
+def first_colors(cmap, k):
+    """The first ``k`` colours of a qualitative colormap as a colormap of its own (a colour bar of ``k``
+    categories: value ``i`` in ``[-0.5, k - 0.5]`` gets the colour ``cmap`` gives ``i`` in its own range).
+
+    Parameters
+    ----------
+    cmap : str
+        A listed (qualitative) matplotlib colormap such as ``"tab10"``.
+    k : int
+        Number of categories, at most the colormap's number of colours.
+
+    Returns
+    -------
+    matplotlib.colors.ListedColormap
+    """
+    from matplotlib.colors import ListedColormap
+
+    cm = _colormap(cmap)
+    colors = getattr(cm, "colors", None)
+    if colors is None or not 1 <= int(k) <= len(colors):
+        raise OptionError(f"first_colors needs a listed colormap of at least {k} colours, got {cmap!r}")
+    return ListedColormap(list(colors)[:int(k)], name=f"{cm.name}_{int(k)}")
+
+
+def _text_size(fig, text, fontsize):
+    """Width and height in inches of ``text`` drawn at ``fontsize`` points in ``fig``."""
+    from matplotlib.text import Text
+
+    t = Text(0, 0, text, fontsize=fontsize)
+    t.set_figure(fig)
+    bb = t.get_window_extent(fig.canvas.get_renderer())
+    return bb.width / fig.dpi, bb.height / fig.dpi
+
+
+def _wrap(fig, text, width, fontsize):
+    """``text`` broken at spaces so that no line is wider than ``width`` inches at ``fontsize``.
+
+    Existing line breaks are kept; a single word wider than ``width`` stays whole.
+    """
+    out = []
+    for para in str(text).split("\n"):
+        line = ""
+        for word in para.split(" "):
+            cand = word if not line else line + " " + word
+            if line and _text_size(fig, cand, fontsize)[0] > width:
+                out.append(line)
+                line = word
+            else:
+                line = cand
+        out.append(line)
+    return "\n".join(out)
+
+
+def _wrapped_height(fig, text, width, fontsize):
+    """``text`` wrapped to ``width`` inches and its height in inches (0 for no text)."""
+    if not text:
+        return "", 0.0
+    t = _wrap(fig, text, width, fontsize)
+    return t, _text_size(fig, t, fontsize)[1]
+
+
+def _nice_length(span):
+    """The largest 1, 2 or 5 times a power of ten that is at most ``span`` (> 0)."""
+    e = 10.0 ** np.floor(np.log10(span))
+    for m in (5.0, 2.0, 1.0):
+        if m * e <= span:
+            return float(m * e)
+    return float(e)
+
+
+def _scale_bar(fig, x, y, per_unit, width, unit):
+    """A scale bar at ``(x, y)`` inches (its left end; the label above it): the largest round length up to
+    ``VIZ_SCALE_BAR_FRACTION`` of ``width`` (data units) drawn at ``per_unit`` inches per data unit.
+    Returns the bar's length in data units."""
+    from matplotlib.lines import Line2D
+
+    length = _nice_length(tol.VIZ_SCALE_BAR_FRACTION * width)
+    bar = Line2D([x, x + length * per_unit], [y, y], transform=fig.dpi_scale_trans, color="black", lw=3,
+                 solid_capstyle="butt", gid="scale bar")
+    fig.add_artist(bar)
+    fig.text(x + 0.5 * length * per_unit, y + 0.06, f"{length:g} {unit}", transform=fig.dpi_scale_trans,
+             ha="center", va="bottom", fontsize=9, gid="scale bar label")
+    return length
+
+
+def _caption_text(fig, text, x, y):
+    """Caption ``text`` (already wrapped) with its top-left corner at ``(x, y)`` inches."""
+    if text:
+        fig.text(x, y, text, transform=fig.dpi_scale_trans, ha="left", va="top", fontsize=_CAPTION_SIZE,
+                 color="0.15", gid="caption")
+
+
+def _plot_with_caption(fig, width, height, title_axes, title, caption):
+    """Give a plot figure its wrapped title and caption, resize it for them and lay it out."""
+    if title:
+        title_axes.set_title(_wrap(fig, title, width - 1.4, _TITLE_SIZE), fontsize=_TITLE_SIZE)
+    cap, ch = _wrapped_height(fig, caption, width - 0.4, _CAPTION_SIZE)
+    ch = ch + 0.2 if cap else 0.0
+    H = height + ch
+    fig.set_size_inches(width, H)
+    _caption_text(fig, cap, 0.2, ch - 0.08)
+    fig.tight_layout(rect=(0.0, ch / H, 1.0, 1.0))
+    return fig
 
 
 def _symmetric_range(values, vmin, vmax):
@@ -129,7 +258,7 @@ def torsion_colors(values, vmin=None, vmax=None, cmap="coolwarm"):
     return rgb
 
 
-def view_basis(V, view=None):
+def view_basis(V, view=None, *, right=None):
     """Orthographic camera for a mesh: screen right, screen up, towards the viewer.
 
     By default the viewer looks along the mesh's smallest principal axis (the
@@ -141,6 +270,10 @@ def view_basis(V, view=None):
     V : (n, 3) float64
     view : None or (3,) float64
         Direction from the mesh towards the viewer (overrides the principal axis).
+    right : None or (3,) float64
+        A direction drawn left to right (e.g. from one end of the main vessel to
+        the other): its part in the picture plane is screen right. Ignored when
+        it is (nearly) along the viewing direction.
 
     Returns
     -------
@@ -149,6 +282,7 @@ def view_basis(V, view=None):
     """
     P = np.asarray(V, float)
     X = P - P.mean(axis=0)
+    along = None if right is None else np.asarray(right, float).reshape(3)
     if view is None:
         _, _, Wt = np.linalg.svd(X, full_matrices=False)
         w = Wt[2]
@@ -178,6 +312,11 @@ def view_basis(V, view=None):
         right /= np.linalg.norm(right)
         up = np.cross(w, right)
     up /= np.linalg.norm(up)
+    if along is not None:
+        r = along - (along @ w) * w
+        if np.linalg.norm(r) >= tol.VIZ_UP_TOLERANCE * np.linalg.norm(along):
+            r /= np.linalg.norm(r)
+            return np.stack([r, np.cross(w, r), w])
     right = np.cross(up, w)
     return np.stack([right, up, w])
 
@@ -347,25 +486,22 @@ def _shaded_polygons(meshes, basis, norm, cmap, color, period=None):
     return np.concatenate(polys)[order], np.concatenate(cols)[order]
 
 
-def _render_figure(poly, col, title, colorbar, lines=(), alpha=None, labels=()):
-    """Figure of screen polygons at equal aspect; ``colorbar`` is None or (ScalarMappable, label);
-    ``lines`` are screen polylines (k, 2) drawn on top; ``alpha`` makes the faces translucent;
-    ``labels`` are ``((2,) screen point, text)`` drawn boxed on top."""
+def _frame(poly, lines=(), labels=()):
+    """Data window ``(x0, x1, y0, y1)`` of a render: the projected extent of the faces, lines and labelled
+    points with a margin of ``VIZ_FRAME_MARGIN`` of its larger side."""
+    pts = [poly.reshape(-1, 2)] + [np.asarray(L, float).reshape(-1, 2) for L in lines]
+    pts += [np.asarray(q, float).reshape(1, 2) for q, _ in labels]
+    xy = np.concatenate(pts)
+    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
+    pad = tol.VIZ_FRAME_MARGIN * max(x1 - x0, y1 - y0, 1e-12)
+    return x0 - pad, x1 + pad, y0 - pad, y1 + pad
+
+
+def _draw_view(ax, poly, col, window, lines=(), alpha=None, labels=()):
+    """Screen polygons, lines and labels into ``ax`` at equal aspect, limited to ``window``, no axes drawn."""
     from matplotlib.collections import PolyCollection
 
-    xy = poly.reshape(-1, 2)
-    (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
-    w, h = max(x1 - x0, 1e-12), max(y1 - y0, 1e-12)
-    # axes size in inches from the content's aspect, then room for title and colour bar
-    a = h / w
-    wa = tol.VIZ_FIG_WIDTH if a <= _MAX_HEIGHT / tol.VIZ_FIG_WIDTH else _MAX_HEIGHT / a
-    ha = max(wa * a, 0.4)
-    right = 1.5 if colorbar is not None else 0.3
-    top = 0.6 if title else 0.25
-    W, H = wa + right + 0.3, max(ha + top + 0.3, 2.6 if colorbar is not None else 1.0)
-    fig = _figure((W, H))
-    yb = (H - top - ha) / 2
-    ax = fig.add_axes([0.3 / W, yb / H, wa / W, ha / H])
     ax.add_collection(PolyCollection(poly, facecolors=col, edgecolors=col if alpha is None else "none",
                                      linewidths=0.6 if alpha is None else 0.0, antialiaseds=False, alpha=alpha))
     for L in lines:
@@ -374,28 +510,81 @@ def _render_figure(poly, col, title, colorbar, lines=(), alpha=None, labels=()):
         ax.plot([x], [y], "o", color="black", ms=4)
         ax.annotate(text, (x, y), xytext=(6, 6), textcoords="offset points", fontsize=10, fontweight="bold",
                     bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "black", "lw": 0.8})
-    pad = 0.02 * max(w, h)
-    ax.set_xlim(x0 - pad, x1 + pad)
-    ax.set_ylim(y0 - pad, y1 + pad)
+    x0, x1, y0, y1 = window
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
     ax.set_aspect("equal", adjustable="box")
     ax.set_axis_off()
+
+
+def _render_figure(poly, col, title, colorbar, lines=(), alpha=None, labels=(), caption=None, unit=None,
+                   cbar_ticks=None):
+    """Figure of screen polygons at equal aspect, framed on their extent.
+
+    ``colorbar`` is None or (ScalarMappable, label): vertical at the right of a
+    tall picture, horizontal below a flat one; ``lines`` are screen polylines
+    (k, 2) drawn on top; ``alpha`` makes the faces translucent; ``labels`` are
+    ``((2,) screen point, text)`` drawn boxed on top; ``caption`` is wrapped
+    below; ``unit`` (e.g. "mm") adds a scale bar in that unit at the bottom left.
+    """
+    x0, x1, y0, y1 = _frame(poly, lines, labels)
+    w, h = x1 - x0, y1 - y0
+    a = h / w
+    wa = tol.VIZ_FIG_WIDTH if a * tol.VIZ_FIG_WIDTH <= _MAX_HEIGHT else _MAX_HEIGHT / a
+    ha = wa * a
+    if ha < _MIN_AXES_HEIGHT:  # a thin strip: a little more room above and below, not a wider figure
+        grow = 0.5 * (_MIN_AXES_HEIGHT / wa * w - h)
+        y0, y1, ha = y0 - grow, y1 + grow, _MIN_AXES_HEIGHT
+    vertical = colorbar is not None and ha >= _MIN_VERTICAL_BAR
+    left, right = 0.25, (1.5 if vertical else 0.25)
+    W = max(wa + left + right, tol.VIZ_MIN_FIG_WIDTH)
+    fig = _figure((W, 4.0))
+    title, th = _wrapped_height(fig, title, W - 0.4, _TITLE_SIZE)
+    th = th + 0.3 if title else 0.15
+    cap, ch = _wrapped_height(fig, caption, W - 0.5, _CAPTION_SIZE)
+    ch = ch + 0.15 if cap else 0.0
+    strip = max(0.45 if unit else 0.0, 0.75 if colorbar is not None and not vertical else 0.0)
+    bottom = 0.1 + ch + strip
+    H = bottom + 0.1 + ha + th
+    fig.set_size_inches(W, H)
+    xa = left + 0.5 * (W - left - right - wa)
+    ya = bottom + 0.1
+    ax = fig.add_axes([xa / W, ya / H, wa / W, ha / H])
+    _draw_view(ax, poly, col, (x0, x1, y0, y1), lines, alpha, labels)
     if title:
-        fig.text(0.5, 1 - 0.3 / H, title, ha="center", va="center", fontsize=11)
+        fig.text(0.5, (H - 0.15) / H, title, ha="center", va="top", fontsize=_TITLE_SIZE, gid="title")
+    _caption_text(fig, cap, 0.25, 0.1 + ch - 0.05)
+    bar_end = xa
+    if unit:
+        length = _scale_bar(fig, xa, 0.1 + ch + 0.12, wa / w, w, unit)
+        bar_end = xa + length * wa / w + 0.3
     if colorbar is not None:
-        ch = min(H - top - 0.5, 5.0)
-        cax = fig.add_axes([(W - right + 0.25) / W, (H - top - ch) / 2 / H + 0.1 / H, 0.22 / W, ch / H])
-        fig.colorbar(colorbar[0], cax=cax).set_label(colorbar[1])
+        if vertical:
+            cbh = min(ha, 5.0)
+            cax = fig.add_axes([(xa + wa + 0.3) / W, (ya + 0.5 * (ha - cbh)) / H, 0.22 / W, cbh / H])
+            cb = fig.colorbar(colorbar[0], cax=cax)
+        else:
+            cw = min(4.5, xa + wa - bar_end - 0.4)
+            cax = fig.add_axes([(xa + wa - cw) / W, (0.1 + ch + 0.52) / H, cw / W, 0.16 / H])
+            cb = fig.colorbar(colorbar[0], cax=cax, orientation="horizontal")
+        cb.set_label(colorbar[1])
+        if cbar_ticks is not None:
+            cb.set_ticks(list(cbar_ticks))
     return fig
 
 
 def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material twist \u03b1 (deg)",
                 view=None, vmin=None, vmax=None, cmap="coolwarm", others=(), color=(0.85, 0.45, 0.4),
-                max_faces=None, dpi=None, period=None, lines=(), alpha=None, labels=()):
+                max_faces=None, dpi=None, period=None, lines=(), alpha=None, labels=(), caption=None,
+                scale_bar=None, cbar_ticks=None, right=None):
     """Render a (shaded) mesh to a PNG, headless.
 
     Orthographic view from :func:`view_basis` (side-on, equal aspect), faces
     drawn back to front with flat two-sided Lambert shading, per-face colour the
-    mean of its vertices' scalars, and a colour bar.
+    mean of its vertices' scalars, and a colour bar. The picture is framed on
+    the projected extent of the meshes, lines and labels (margin
+    ``tolerances.VIZ_FRAME_MARGIN``); a flat picture gets its colour bar below
+    it, a tall one at its right. The title and caption are wrapped, never cut.
 
     Parameters
     ----------
@@ -406,8 +595,9 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
     scalars : (n,) float64, optional
         Per-vertex values to colour by (degrees for twist). None: plain colour, no colour bar.
     title : str, optional
+        Wrapped to the figure's width.
     cbar_label : str
-        Colour-bar label.
+        Colour-bar label (say what its zero is for a signed quantity).
     view : None or (3,) float64
         Direction towards the viewer (default: smallest principal axis of ``V``).
     vmin, vmax : float, optional
@@ -437,6 +627,15 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
         Opacity of the faces in (0, 1]: a translucent mesh shows the lines inside it.
     labels : sequence of ((3,) float64, str)
         Points marked and labelled on top (e.g. numbered landmarks).
+    caption : str, optional
+        Text below the picture (wrapped): what the colours, lines and zero mean.
+    scale_bar : str, optional
+        The length unit of ``V`` (e.g. ``"mm"``): draw a scale bar of a round
+        length in it below the picture. None: no scale bar.
+    cbar_ticks : sequence of float, optional
+        Colour-bar ticks (default: matplotlib's).
+    right : (3,) float64, optional
+        A direction drawn left to right (:func:`view_basis`).
 
     Returns
     -------
@@ -469,7 +668,7 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
     meshes = [(V, F, S, True)] + [(*as_mesh(Vo, Fo), None, False) for Vo, Fo in others]
     meshes = [decimated(v, f, s, max_faces, period) + (main,) if len(f) > max_faces else (v, f, s, main)
               for v, f, s, main in meshes]
-    basis = view_basis(V if view is None else np.concatenate([m[0] for m in meshes]), view)
+    basis = view_basis(V if view is None else np.concatenate([m[0] for m in meshes]), view, right=right)
     norm = Normalize(*_symmetric_range(S if S is not None else [0.0], vmin, vmax))
     poly, col = _shaded_polygons(meshes, basis, norm, cm, color, period)
     bar = None if S is None else (ScalarMappable(norm=norm, cmap=cm), cbar_label)
@@ -477,15 +676,145 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
     if alpha is not None and not 0 < float(alpha) <= 1:
         raise OptionError(f"alpha must be in (0, 1], got {alpha!r}")
     marks = [(np.asarray(P, float) @ basis[:2].T, str(t)) for P, t in labels]
-    fig = _render_figure(poly, col, title, bar, drawn, alpha, marks)
+    fig = _render_figure(poly, col, title, bar, drawn, alpha, marks, caption, scale_bar, cbar_ticks)
     _save_png(fig, path, dpi, facecolor="white")
     log.info("rendered %s (%d faces)", path, len(poly))
     return Path(path)
 
 
+def _panel_view(p, max_faces):
+    """One panel of :func:`render_panels`: its screen polygons, colours, lines, labels, window and title."""
+    V, F = as_mesh(p["V"], p["F"])
+    if len(F) > max_faces:
+        V, F, _ = _decimate(V, F, None, max_faces)
+    alpha = p.get("alpha")
+    if alpha is not None and not 0 < float(alpha) <= 1:
+        raise OptionError(f"alpha must be in (0, 1], got {alpha!r}")
+    basis = view_basis(V, right=p.get("right"))
+    poly, col = _shaded_polygons([(V, F, None, True)], basis, None, None, p.get("color", (0.85, 0.45, 0.4)))
+    lines = [np.asarray(L, float) @ basis[:2].T for L in p.get("lines", ())]
+    labels = [(np.asarray(q, float) @ basis[:2].T, str(t)) for q, t in p.get("labels", ())]
+    return {"poly": poly, "col": col, "lines": lines, "labels": labels, "alpha": alpha,
+            "window": list(_frame(poly, lines, labels)), "title": p.get("title")}
+
+
+def render_panels(path, panels, *, title=None, caption=None, scale_bar="mm", max_faces=None, dpi=None):
+    """Several meshes drawn at one scale in one PNG, stacked or side by side, with one scale bar.
+
+    Each mesh is seen side-on (:func:`view_basis`) and framed on its extent;
+    all are drawn at the same inches per unit so their sizes compare, one above
+    the other or side by side, whichever makes the squarer picture. A picture
+    still flatter (or taller) than ``tolerances.VIZ_PANELS_MAX_ASPECT`` gets
+    more room around the meshes instead.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output ``.png`` (written atomically).
+    panels : sequence of dict
+        One per mesh: ``V`` (n, 3) and ``F`` (m, 3), and optionally ``title``,
+        ``lines`` and ``labels`` (as :func:`render_mesh`), ``color`` (RGB in
+        [0, 1]), ``alpha`` and ``right`` (a direction drawn left to right, e.g.
+        from one end of the main vessel to the other).
+    title, caption : str, optional
+        Above and below the panels, wrapped to the figure's width.
+    scale_bar : str or None
+        Length unit of the meshes, named on the scale bar (None: no bar).
+    max_faces, dpi : int, optional
+        As :func:`render_mesh`.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+
+    Raises
+    ------
+    VesselError
+        No panel, or a panel's mesh is not a triangle mesh.
+    OptionError
+        ``max_faces`` not a positive integer or an ``alpha`` outside (0, 1].
+    DecimationError
+        A mesh above ``max_faces`` could not be decimated.
+    """
+    if not len(panels):
+        raise VesselError("render_panels needs at least one panel")
+    max_faces = _positive_int(tol.VIZ_MAX_FACES if max_faces is None else max_faces, "max_faces")
+    dpi = tol.VIZ_DPI if dpi is None else dpi
+    views = [_panel_view(p, max_faces) for p in panels]
+    n = len(views)
+    w = np.array([v["window"][1] - v["window"][0] for v in views])
+    h = np.array([v["window"][3] - v["window"][2] for v in views])
+    pt, gap, side = (0.35 if any(v["title"] for v in views) else 0.1), 0.35, 0.25
+
+    def layout(column):
+        """Inches per unit and the (width, height) in inches of the panels, one above the other or in a row."""
+        if column:
+            k = min((tol.VIZ_FIG_WIDTH - 2 * side) / w.max(), (_MAX_HEIGHT - n * pt) / h.sum())
+            return k, w.max() * k, h.sum() * k + n * pt
+        k = min((tol.VIZ_FIG_WIDTH - 2 * side - gap * (n - 1)) / w.sum(), (_MAX_HEIGHT - pt) / h.max())
+        return k, w.sum() * k + gap * (n - 1), h.max() * k + pt
+
+    fig = _figure((tol.VIZ_FIG_WIDTH, 4.0))
+    fixed = 0.5 + (0.45 if scale_bar else 0.0)  # title and scale-bar strip, roughly
+    column = min((True, False), key=lambda c: max((layout(c)[1] + 2 * side) / (layout(c)[2] + fixed),
+                                                  (layout(c)[2] + fixed) / (layout(c)[1] + 2 * side)))
+    k, cw, chh = layout(column)
+    for v, wi in zip(views, w):  # panel titles wrapped to their panel (a row) or the figure (a column)
+        room = tol.VIZ_FIG_WIDTH - 0.4 if column else wi * k + 0.8 * gap
+        v["title"], v["title_h"] = _wrapped_height(fig, v["title"], room, _PANEL_TITLE_SIZE)
+    pt = max(v["title_h"] for v in views) + (0.2 if any(v["title"] for v in views) else 0.1)
+    k, cw, chh = layout(column)
+    W = max(cw + 2 * side, tol.VIZ_MIN_FIG_WIDTH)
+    title, th = _wrapped_height(fig, title, W - 0.4, _TITLE_SIZE)
+    th = th + 0.3 if title else 0.1
+    cap, ch = _wrapped_height(fig, caption, W - 0.5, _CAPTION_SIZE)
+    ch = ch + 0.15 if cap else 0.0
+    strip = 0.45 if scale_bar else 0.0
+    H = 0.1 + ch + strip + chh + th
+    if W / H > tol.VIZ_PANELS_MAX_ASPECT:  # too flat: more room above and below each mesh
+        extra = (W / tol.VIZ_PANELS_MAX_ASPECT - H) / (n if column else 1)
+        for v in views:
+            v["window"][2] -= 0.5 * extra / k
+            v["window"][3] += 0.5 * extra / k
+        h = h + extra / k
+        chh += extra * (n if column else 1)
+        H = 0.1 + ch + strip + chh + th
+    if H / W > tol.VIZ_PANELS_MAX_ASPECT:  # too tall: a wider figure, the panels centred
+        W = H / tol.VIZ_PANELS_MAX_ASPECT
+    fig.set_size_inches(W, H)
+    top = H - th
+    x = 0.5 * (W - cw)
+    for v, wi, hi in zip(views, w, h):
+        aw, ah = wi * k, hi * k
+        if column:
+            xa, ya = 0.5 * (W - aw), top - pt - ah
+            top = ya
+        else:
+            xa, ya = x, top - pt - 0.5 * (chh - pt) - 0.5 * ah
+            x += aw + gap
+        ax = fig.add_axes([xa / W, ya / H, aw / W, ah / H])
+        _draw_view(ax, v["poly"], v["col"], v["window"], v["lines"], v["alpha"], v["labels"])
+        if v["title"]:
+            fig.text((xa + 0.5 * aw) / W, (ya + ah + 0.08) / H, v["title"], ha="center", va="bottom",
+                     fontsize=_PANEL_TITLE_SIZE, gid="panel title")
+    if title:
+        fig.text(0.5, (H - 0.15) / H, title, ha="center", va="top", fontsize=_TITLE_SIZE, gid="title")
+    if scale_bar:
+        _scale_bar(fig, 0.5 * (W - cw), 0.1 + ch + 0.12, k, float(w.max()), scale_bar)
+    _caption_text(fig, cap, 0.25, 0.1 + ch - 0.05)
+    _save_png(fig, path, dpi, facecolor="white")
+    log.info("rendered %s (%d panels)", path, n)
+    return Path(path)
+
+
 def plot_energy_curve(path, angles, energies, *, optimum=None, evaluated=None, fit_quadratic=True,
-                      title=None, relative_to=None):
+                      title=None, relative_to=None, caption=ENERGY_IN_WORDS, angle_name="rotation of the joined end"):
     """Torsion energy against the rotation of the joined end (paper Fig. 4).
+
+    The least-squares parabola is drawn dashed over the data (higher z-order,
+    another colour, in the legend); the title is wrapped, never cut; the
+    caption says what the energy is.
 
     Parameters
     ----------
@@ -494,7 +823,7 @@ def plot_energy_curve(path, angles, energies, *, optimum=None, evaluated=None, f
     angles : (k,) float64
         End rotations, radians.
     energies : (k,) float64
-        Torsion energies (Eq. 8) at ``angles``.
+        Torsion energies (Eq. 8) at ``angles``, rad^2.
     optimum : (float, float), optional
         ``(angle, energy)`` of the minimum, marked with a star.
     evaluated : ((q,) float64, (q,) float64), optional
@@ -505,6 +834,10 @@ def plot_energy_curve(path, angles, energies, *, optimum=None, evaluated=None, f
     relative_to : float, optional
         Plot angles minus this value (radians), e.g. the optimum, so it sits at 0
         like the paper's Fig. 4.
+    caption : str or None
+        Text below the plot (default :data:`ENERGY_IN_WORDS`).
+    angle_name : str
+        What the angles are, for the axis label.
 
     Returns
     -------
@@ -518,35 +851,41 @@ def plot_energy_curve(path, angles, energies, *, optimum=None, evaluated=None, f
     order = np.argsort(a)
     a, e = a[order], e[order]
     x = np.degrees(a - ref)
-    fig = _figure((6.4, 4.2))
+    fig = _figure((6.4, 4.4))
     ax = fig.subplots()
-    ax.plot(x, e, "-o", color="C0", ms=4, lw=1.6, label="torsion energy (Eq. 8)")
+    ax.plot(x, e, "-o", color="C0", ms=4, lw=1.2, zorder=2, label="torsion energy E (Eq. 8)")
     if fit_quadratic and a.size >= 3:
         c = np.polyfit(x, e, 2)
         xf = np.linspace(x.min(), x.max(), 300)
-        ax.plot(xf, np.polyval(c, xf), "--", color="0.4", lw=1.0, label="quadratic fit")
+        ax.plot(xf, np.polyval(c, xf), "--", color="C1", lw=2.0, zorder=4, gid="quadratic fit",
+                label="least-squares quadratic fit")
     if evaluated is not None:
         ea, ee = (np.asarray(v, float).reshape(-1) for v in evaluated)
-        ax.plot(np.degrees(ea - ref), ee, ".", color="C2", ms=7, label=f"optimiser evaluations ({ea.size})")
+        ax.plot(np.degrees(ea - ref), ee, ".", color="C2", ms=7, zorder=3,
+                label=f"optimiser evaluations ({ea.size})")
     if optimum is not None:
         oa, oe = float(optimum[0]), float(optimum[1])
+        where = "" if relative_to is not None else f" at {np.degrees(oa):+.1f}\u00b0"
         ax.plot([np.degrees(oa - ref)], [oe], "*", color="C3", ms=16, zorder=5,
-                label=f"minimum: {np.degrees(oa):.1f}\u00b0, E = {oe:.3g}")
-    ax.set_xlabel("rotation of the joined end" + (" from the optimum" if relative_to is not None else "")
-                  + " (deg)")
-    ax.set_ylabel("torsion energy  $E_\\tau=\\int_0^1 \\alpha'(s)^2\\,ds$")
+                label=f"minimum{where}: E = {oe:.3g} rad\u00b2")
+    ax.set_xlabel(angle_name + (" from the minimum" if relative_to is not None else "") + " (deg)")
+    ax.set_ylabel("torsion energy E (rad\u00b2)")
     ax.set_ylim(bottom=min(0.0, float(np.nanmin(e))))
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper center", fontsize=8, framealpha=0.9)
-    if title:
-        ax.set_title(title)
-    fig.tight_layout()
+    _plot_with_caption(fig, 6.4, 4.4, ax, title, caption)
     _save_png(fig, path, tol.VIZ_DPI)
     return Path(path)
 
 
-def plot_torsion_profile(path, profile, *, title=None):
-    """Material twist ``alpha(s)`` (Eq. 7) and torsion ``alpha'(s)`` of a :class:`vesselgp.TorsionProfile`.
+def plot_torsion_profile(path, profile, *, title=None, reverse=False, zero=None, origin=None, caption=None,
+                         unit="mm"):
+    """Material twist ``alpha`` (Eq. 7) and its rate along the axis of a :class:`vesselgp.TorsionProfile`.
+
+    The x axis is the arc length in ``unit`` (``profile.s`` times
+    ``profile.length``), ``alpha`` is in degrees and its rate in degrees per
+    ``unit``; the caption says what zero is, which way is positive and what
+    the energy (Eq. 8) means.
 
     Parameters
     ----------
@@ -554,26 +893,60 @@ def plot_torsion_profile(path, profile, *, title=None):
         Output ``.png``.
     profile : TorsionProfile
     title : str, optional
+        Default: the total twist, the length and the energy.
+    reverse : bool
+        Draw from the ``s = 1`` end: the arc length is measured from it and
+        ``alpha`` about the axis pointing away from it (right-handed twist
+        stays positive: the total twist and the rate keep their sign).
+    zero : float, optional
+        The ``alpha`` (radians, of ``profile``) drawn as 0 (default: the
+        starting end's, ``alpha[0]`` or with ``reverse`` ``alpha[-1]``).
+    origin : str, optional
+        Where the arc length starts and ``alpha`` is 0, in words (default
+        "the s = 0 end", "the s = 1 end" with ``reverse``).
+    caption : str, optional
+        Text below the plots (default: what zero is, the sign and the energy in words).
+    unit : str
+        Length unit of ``profile.length``.
 
     Returns
     -------
     pathlib.Path
     """
+    L = float(profile.length)
+    sign = -1.0 if reverse else 1.0
+    origin = origin or ("the s = 1 end" if reverse else "the s = 0 end")
+    ref = float(profile.alpha[-1] if reverse else profile.alpha[0]) if zero is None else float(zero)
+
+    def arc(s):
+        return L * (1.0 - np.asarray(s, float)) if reverse else L * np.asarray(s, float)
+
+    def twist(al):
+        return np.degrees(sign * (np.asarray(al, float) - ref))
+
     fig = _figure((6.4, 5.2))
     a1, a2 = fig.subplots(2, 1, sharex=True)
-    a1.plot(profile.s, np.degrees(profile.alpha), color="C0", lw=1.8, label="\u03b1(s), smoothed")
-    a1.plot(profile.bin_s, np.degrees(profile.bin_alpha), ".", color="0.55", ms=3, label="Eq. 7 bin means")
+    a1.plot(arc(profile.s), twist(profile.alpha), color="C0", lw=1.8, label="\u03b1, smoothed")
+    a1.plot(arc(profile.bin_s), twist(profile.bin_alpha), ".", color="0.55", ms=3, label="Eq. 7 bin means")
+    a1.axhline(0.0, color="0.5", lw=0.8)
     a1.set_ylabel("twist \u03b1 (deg)")
     a1.legend(fontsize=8)
     a1.grid(True, alpha=0.3)
-    a2.plot(profile.s, np.degrees(profile.dalpha), color="C3", lw=1.8)
+    # d alpha / d(arc length): the same sign from either end (both the axis and the direction turn round)
+    a2.plot(arc(profile.s), np.degrees(profile.dalpha) / L, color="C3", lw=1.8)
     a2.axhline(0.0, color="0.5", lw=0.8)
-    a2.set_ylabel("torsion \u03b1'(s) (deg per unit s)")
-    a2.set_xlabel("normalised arc length s")
+    a2.set_ylabel(f"twist rate \u03b1' (deg/{unit})")
+    a2.set_xlabel(f"arc length from {origin} ({unit})")
+    a2.set_xlim(0.0, L)
     a2.grid(True, alpha=0.3)
-    a1.set_title(title or f"total twist {np.degrees(profile.total_twist):.1f}\u00b0, "
-                 f"energy E = {profile.energy:.4g} (Eq. 8)", fontsize=10)
-    fig.tight_layout()
+    total = float(profile.total_twist)
+    title = title or (f"total twist {np.degrees(total):+.1f}\u00b0 over {L:.3g} {unit}, "
+                      f"energy E\u00a0=\u00a0{profile.energy:.3g}\u00a0rad\u00b2 (Eq.\u00a08)")
+    if caption is None:
+        caption = (f"\u03b1: the material twist of each cross-section about the axis (Eq. 7), 0 at {origin}; "
+                   f"positive (red in the renders) turns right-handed about the axis pointing away from {origin}. "
+                   f"\u03b1' = d\u03b1 / d(arc length). " + ENERGY_IN_WORDS)
+    _plot_with_caption(fig, 6.4, 5.2, a1, title, caption)
     _save_png(fig, path, tol.VIZ_DPI)
     return Path(path)
 
@@ -613,7 +986,7 @@ def compose_side_by_side(path, images, *, title=None):
 
 
 def plot_cumulative_twist(path, s, twist_deg, *, segment_deg=None, xlabel="arc length along scan A (mm)",
-                          title=None):
+                          title=None, caption=None):
     """Cumulative twist against arc length, with each segment's value written on it.
 
     Parameters
@@ -627,6 +1000,8 @@ def plot_cumulative_twist(path, s, twist_deg, *, segment_deg=None, xlabel="arc l
     segment_deg : (k - 1,) float64, optional
         The twist of each segment, written at its middle (default: the differences).
     xlabel, title : str
+    caption : str, optional
+        Text below the plot (e.g. what zero is and which way is positive).
 
     Returns
     -------
@@ -650,7 +1025,7 @@ def plot_cumulative_twist(path, s, twist_deg, *, segment_deg=None, xlabel="arc l
     ax.set_xlabel(xlabel)
     ax.set_ylabel("cumulative twist (deg)")
     ax.grid(True, alpha=0.3)
-    ax.set_title(title or f"twist between the scans: total {c[-1] - c[0]:+.1f}\u00b0", fontsize=10)
-    fig.tight_layout()
+    _plot_with_caption(fig, 6.4, 4.0, ax, title or f"twist between the scans: total {c[-1] - c[0]:+.1f}\u00b0",
+                       caption)
     _save_png(fig, path, tol.VIZ_DPI)
     return Path(path)
