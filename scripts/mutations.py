@@ -302,6 +302,24 @@ MUTATIONS = {
         "    t = np.asarray(other.center, float) - gap * d_o - R @ np.asarray(e.center, float)",
         ["tests/test_join_vessels.py"],
     ),
+    "quad_fan_skips_a_corner": (
+        "vesselgp/_interop.py",
+        "    T = np.stack([np.broadcast_to(C[:, :1], (n, k - 2)), C[:, j], C[:, j + 1]], axis=-1)",
+        "    T = np.stack([np.broadcast_to(C[:, :1], (n, k - 2)), C[:, j], C[:, np.minimum(j + 2, k - 1)]], axis=-1)",
+        ["tests/test_formats.py"],
+    ),
+    "ragged_fan_skips_a_corner": (
+        "vesselgp/_interop.py",
+        "    return np.c_[conn[base], conn[base + t + 1], conn[base + t + 2]], int(np.count_nonzero(sizes < 3))",
+        "    return np.c_[conn[base], conn[base + t + 1], conn[base + t + 1]], int(np.count_nonzero(sizes < 3))",
+        ["tests/test_formats.py"],
+    ),
+    "twist_report_twist_of_the_wrong_landmark": (
+        "vesselgp/pipeline.py",
+        "    cum = np.interp(main.vertex_s[on] * r.length_a, r.s_a, cumulative_deg)",
+        "    cum = np.interp(main.vertex_s[on] * r.length_a, r.s_a, -np.asarray(cumulative_deg))",
+        ["tests/test_twist.py"],
+    ),
     "checked_mesh_faces_unchecked": (
         "vesselgp/prepared.py",
         "    return CheckedMesh(topo, *_nondegenerate_faces(V, F))",

@@ -68,11 +68,17 @@ def reports(tmp_path_factory):
     write_mesh(d / "tree.ply", t.V, t.F)
     assert main(["fit", str(d / "tree.ply"), "-o", str(d / "tree"), "-q"]) == 0
     assert main(["demo", "--resolution", "0.3", "--n-curve", "5", "-o", str(d / "demo"), "-q"]) == 0
+    from vesselgp.synthetic import twist_pair
+
+    p = twist_pair(3, twist_deg=40.0, voxel=(0.6, 0.6), side_radius=1.8)
+    write_mesh(d / "a.ply", p.a.V, p.a.F)
+    write_mesh(d / "b.ply", p.V_b, p.b.F)
+    assert main(["twist", str(d / "a.ply"), str(d / "b.ply"), "-o", str(d / "twist"), "-q"]) == 0
     return {"fit": d / "fit" / "report.html", "tree": d / "tree" / "report.html",
-            "join": d / "demo" / "case1" / "report.html"}
+            "join": d / "demo" / "case1" / "report.html", "twist": d / "twist" / "report.html"}
 
 
-@pytest.mark.parametrize("kind", ["fit", "tree", "join"])
+@pytest.mark.parametrize("kind", ["fit", "tree", "join", "twist"])
 def test_the_page_is_one_self_contained_file(reports, kind):
     page = reports[kind].read_text()
     assert not re.search(r"<script[^>]+src=", page) and "cdn.plot.ly" not in page.split("</script>")[-1]
@@ -82,7 +88,7 @@ def test_the_page_is_one_self_contained_file(reports, kind):
 
 
 @needs_browser
-@pytest.mark.parametrize("kind", ["fit", "tree", "join"])
+@pytest.mark.parametrize("kind", ["fit", "tree", "join", "twist"])
 def test_the_page_draws_its_mesh_in_a_browser(reports, kind, tmp_path):
     # over 1 % of the window (10,800 pixels; a view that draws no mesh changes none): and no console error
     assert drawn_fraction(reports[kind], tmp_path) > 0.01

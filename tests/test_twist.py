@@ -146,8 +146,19 @@ def test_cli_twist(tmp_path, pairs, capsys):
     rows = (out / "twist.csv").read_text().strip().splitlines()
     assert len(rows) == 1 + len(p.segment_twist) and "twist_deg_per_cm" in rows[0]
     assert (out / "twist_scans.png").stat().st_size > 10_000 and (out / "twist_profile.png").exists()
-    assert sorted(x.name for x in out.iterdir()) == ["twist.csv", "twist.json", "twist_profile.png",
+    assert sorted(x.name for x in out.iterdir()) == ["report.html", "twist.csv", "twist.json", "twist_profile.png",
                                                        "twist_scans.png"]
+    # the report's shading: scan A's vertices past the last side branch carry the whole imposed twist, those
+    # before the first none (the truth's, not the run's numbers)
+    from vesselgp.pipeline import scan_twist_field
+
+    field = scan_twist_field(r, p.a.V, np.degrees(np.r_[0.0, np.cumsum(r.segment_twist)]))
+    root_end = p.a.truth.ends[0].center  # the main vessel's root; its tip is the end farthest from it
+    tip_end = max((e.center for e in p.a.truth.ends), key=lambda c: np.linalg.norm(c - root_end))
+    tip, root = (np.linalg.norm(p.a.V - c, axis=1) < 10.0 for c in (tip_end, root_end))  # past the last, before the first
+    assert abs(np.median(field[tip]) - np.degrees(p.total_twist)) <= SEG_TOL_DEG and abs(np.median(field[root])) < 1e-9
+    page = (out / "report.html").read_text()
+    assert "cumulative twist (deg)" in page and "landmark 1" in page and page.count("<img alt=") == 2
     tube = tmp_path / "tube.ply"
     v = synthetic_vessel("arc", n_around=24)
     vg.write_mesh(tube, v.V, v.F)

@@ -1051,7 +1051,7 @@ def run_demo(outdir, *, resolution=1.0, n_curve=None, cases=(1, 2), pre_rotation
 
 
 #: Files :func:`write_twist` may write.
-TWIST_FILES = ("twist.json", "twist.csv", "twist_scans.png", "twist_profile.png")
+TWIST_FILES = ("twist.json", "twist.csv", "twist_scans.png", "twist_profile.png", "report.html")
 
 
 def twist_scans(scan_a, scan_b, *, ends_a=None, ends_b=None, units=None, scale=None):
@@ -1140,7 +1140,52 @@ def write_twist(out, tw, *, render=True):
                               segment_deg=d["segment_twist_deg"],
                               caption=f"0 at landmark 1 (the first side branch from end {r.ends_a[0]}); each number on "
                                       f"the line is that segment's twist; positive: {sense}.")
+        _twist_report(out, tw, d, sense)
     return d
+
+
+def scan_twist_field(r, V, cumulative_deg):
+    """Each vertex of scan A's mesh ``V``: the twist from scan A to scan B accumulated along the main vessel up to
+    its place there (degrees, 0 at landmark 1; interpolated between the landmarks, constant past the first and
+    the last); a side branch's vertex takes the value of the nearest main-vessel vertex (where it leaves).
+
+    Parameters
+    ----------
+    r : ScanTwist
+    V : (n, 3) float64
+    cumulative_deg : (k,) float64
+        The cumulative twist at the landmarks ``r.s_a`` (``twist.json``'s ``cumulative_twist_deg``).
+
+    Returns
+    -------
+    (n,) float64
+    """
+    from scipy.spatial import cKDTree
+
+    main = r.tree_a.path_to(r.ends_a[1])
+    on = np.isfinite(main.vertex_s)
+    cum = np.interp(main.vertex_s[on] * r.length_a, r.s_a, cumulative_deg)
+    twist = np.empty(len(V))
+    twist[on] = cum
+    twist[~on] = cum[cKDTree(V[on]).query(V[~on])[1]]
+    return twist
+
+
+def _twist_report(out, tw, d, sense):
+    """``report.html`` of ``vesselgp twist``: scan A shaded by the cumulative twist along its main vessel."""
+    r = tw["result"]
+    V, F = tw["A"]
+    twist = scan_twist_field(r, V, d["cumulative_twist_deg"])
+    m = max(float(np.max(np.abs(twist))), tol.VIZ_MIN_RANGE)
+    write_report_html(out("report.html"), f"twist between {Path(d['scan_a']).name} and {Path(d['scan_b']).name}",
+                      [ViewMesh(V, F, twist, label="cumulative twist (deg)", cmap="RdBu_r", vrange=(-m, m))],
+                      lines=[b.dense_points for b in r.tree_a.branches],
+                      labels=[(p, f"landmark {j + 1}") for j, p in enumerate(r.landmarks_a)],
+                      figures=[out.dir / "twist_scans.png", out.dir / "twist_profile.png"], numbers=d,
+                      caption=f"Scan A shaded by the twist from scan A to scan B accumulated along its main vessel "
+                              f"(degrees; 0 at landmark 1, the first side branch from end {r.ends_a[0]}; positive: "
+                              f"{sense}); a side branch takes the value where it leaves. Total "
+                              f"{d['total_twist_deg']:+.1f} degrees over {len(r.s_a)} landmarks.")
 
 
 def twist_table(d):
