@@ -382,7 +382,8 @@ def cmd_demo(args):
                "files": files}
     _emit(args, summary, "vesselgp demo: the paper's two joining cases (Section 3) on generated vessels\n"
                          + pipeline.summary_table(rep["cases"])
-                         + f"\ntotal {dt:.1f} s; figures, meshes and report.json in {out.dir}/")
+                         + f"\ntotal {dt:.1f} s; figures, meshes and report.json in {out.dir}/"
+                         + ("" if args.no_png else f"; open {out.dir}/case2/report.html in a browser"))
     return 0
 
 
