@@ -330,6 +330,8 @@ VIZ_FIG_WIDTH = 8.0
 VIZ_MIN_FIG_WIDTH = 5.0
 #: Margin of a render around the vessel's projected extent, a fraction of its larger side.
 VIZ_FRAME_MARGIN = 0.03
+#: ... of at least this (mesh units): a flat mesh seen edge-on has no projected extent, and gets a window.
+VIZ_MIN_EXTENT = 1e-12
 #: A scale bar is the largest 1, 2 or 5 times a power of ten mm up to this fraction of the picture's width.
 VIZ_SCALE_BAR_FRACTION = 0.2
 #: Largest width/height (and height/width) ratio of a picture of several scans (``twist_scans.png``).

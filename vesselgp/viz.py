@@ -494,7 +494,7 @@ def _frame(poly, lines=(), labels=()):
     xy = np.concatenate(pts)
     xy = xy[np.all(np.isfinite(xy), axis=1)]
     (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
-    pad = tol.VIZ_FRAME_MARGIN * max(x1 - x0, y1 - y0, 1e-12)
+    pad = tol.VIZ_FRAME_MARGIN * max(x1 - x0, y1 - y0, tol.VIZ_MIN_EXTENT)
     return x0 - pad, x1 + pad, y0 - pad, y1 + pad
 
 
