@@ -274,7 +274,7 @@ MUTATIONS = {
     ),
     "network_inscribed_is_the_mean_radius": (
         "vesselgp/network.py",
-        '    pdata["MaximumInscribedSphereRadius"] = SurfaceWinding(V, F)(points)[1]',
+        '    pdata["MaximumInscribedSphereRadius"] = (SurfaceWinding(V, F) if winding is None else winding)(points)[1]',
         '    pdata["MaximumInscribedSphereRadius"] = pdata["MeanRadius"]',
         ["tests/test_vtk_outputs.py"],
     ),

@@ -42,6 +42,7 @@ from ._validate import as_mesh
 from .curves import frenet
 from .errors import OptionError
 from .inside import SurfaceWinding
+from .prepared import PreparedMesh
 
 __all__ = ["CenterlineNetwork", "centerline_network"]
 
@@ -128,7 +129,8 @@ def centerline_network(fit, V, F=None, *, twist=None):
     ----------
     fit : GeneralizedCylinder or VesselTree
     V : (n, 3) float64
-        The fitted mesh (for ``MaximumInscribedSphereRadius``); or a mesh object with ``F`` None.
+        The fitted mesh (for ``MaximumInscribedSphereRadius``); or a mesh object with ``F`` None (a
+        :class:`vesselgp.PreparedMesh` lends its closed surface, built once).
     F : (m, 3) int64
     twist : callable, optional
         ``twist(branch, s) -> alpha`` in radians at normalised arc lengths ``s`` of a branch (a
@@ -155,6 +157,7 @@ def centerline_network(fit, V, F=None, *, twist=None):
     >>> bool(trunk_end == child_start)
     True
     """
+    winding = V.winding if isinstance(V, PreparedMesh) else None  # its closed surface, built once
     V, F = as_mesh(V, F)
     branches, parent, pieces, paths = _pieces(fit)
     pts, data = [], {k: [] for k in ("MeanRadius", "Abscissas", "ParallelTransportNormals", "FrenetTangent",
@@ -188,7 +191,7 @@ def centerline_network(fit, V, F=None, *, twist=None):
             first += len(q) - 1
     points = np.vstack(pts)
     pdata = {k: np.concatenate(v) for k, v in data.items() if v}
-    pdata["MaximumInscribedSphereRadius"] = SurfaceWinding(V, F)(points)[1]
+    pdata["MaximumInscribedSphereRadius"] = (SurfaceWinding(V, F) if winding is None else winding)(points)[1]
     cells, cdata = _cells(pieces, piece_ids, paths)
     return CenterlineNetwork(points=points, cells=tuple(cells), point_data=pdata, cell_data=cdata)
 

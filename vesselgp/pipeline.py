@@ -41,12 +41,13 @@ from .join_vessels import VesselJoin
 from .mesh import clean_mesh, format_point, mesh_scale, stitch, vessel_ends
 from .mesh.scale import UNIT_NAMES, units_factor
 from .network import centerline_network
+from .prepared import PreparedMesh
 from .html_report import ViewMesh, write_report_html
 from .rotations import wrap_angle
 from .synthetic import deform_synthetic, paper_case, synthetic_vessel
 from .torsion import TorsionMeter
 from .twist import twist_between
-from .viz import (ENERGY_IN_WORDS, plot_cumulative_twist, plot_energy_curve, plot_torsion_profile, render_mesh,
+from .viz import (ENERGY_IN_WORDS, decimated, plot_cumulative_twist, plot_energy_curve, plot_torsion_profile, render_mesh,
                   render_panels, first_colors, torsion_colors)
 
 log = logging.getLogger(__name__)
@@ -385,7 +386,8 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="ra
     if found is not None and len(found) > 2:
         return run_fit_tree(V, F, mesh, out, found, uinfo, axis_format=axis_format, render=render)
     t0 = time.perf_counter()
-    gc = fit_generalized_cylinder(V, F, ends=ends, n_nodes=n_nodes, mesh_ends=found)
+    pm = PreparedMesh(V, F, found)  # checked once: the fit, the centre lines' inscribed radius
+    gc = fit_generalized_cylinder(pm, ends=ends, n_nodes=n_nodes)
     dt = time.perf_counter() - t0
     d = {**gc_to_dict(gc), **uinfo, "bulges": bulges_to_dicts(tree_bulges((gc,)))}
     d.update(bbox_diagonal=float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), input=str(mesh), time_s=dt)
@@ -396,9 +398,10 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="ra
     cols["radius"] = gc.radii
     cols.update({f"{n}{c}": fr[:, k, i] for k, n in enumerate("TUV") for i, c in enumerate("xyz")})
     write_csv(out("axis.csv"), cols)
-    _write_centerlines(out, "axis", centerline_network(gc, V, F), axis_format)
+    _write_centerlines(out, "axis", centerline_network(gc, pm), axis_format)
+    theta, dist = np.degrees(gc.vertex_theta), np.hypot(gc.vertex_local[:, 1], gc.vertex_local[:, 2])
+    Vv, Fv, theta_v, dist_v = _for_view(V, F, theta, dist) if render else (V, F, theta, dist)
     if shade != "none":
-        theta, dist = np.degrees(gc.vertex_theta), np.hypot(gc.vertex_local[:, 1], gc.vertex_local[:, 2])
         if shade == "theta":
             val, lo, hi, cmap = theta, -180.0, 180.0, "twilight"
             label = "angle \u03b8 about the axis (deg)"
@@ -414,21 +417,34 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="ra
         _write_shaded(out, f"mesh_{shade}", V, F, torsion_colors(val, lo, hi, cmap),
                       {shade: val, **{k: v for k, v in others.items() if k != shade}})
         if render:
-            render_mesh(out(f"mesh_{shade}.png"), V, F, val, vmin=lo, vmax=hi, cmap=cmap, cbar_label=label,
+            render_mesh(out(f"mesh_{shade}.png"), Vv, Fv, theta_v if shade == "theta" else dist_v, vmin=lo, vmax=hi,
+                        cmap=cmap, cbar_label=label,
                         title=f"{Path(mesh).name}: generalized cylinder, length {gc.length:.4g} mm, "
                               f"mean radius {gc.mean_radius:.3g} mm",
                         period=360.0 if shade == "theta" else None, lines=[gc.dense_points], caption=caption,
                         scale_bar="mm")
     if render:
-        dist = np.hypot(gc.vertex_local[:, 1], gc.vertex_local[:, 2])
         write_report_html(out("report.html"), f"{Path(mesh).name}: generalized cylinder",
-                          [ViewMesh(V, F, dist, label="distance to the axis (mm)")], lines=[gc.dense_points],
+                          [ViewMesh(Vv, Fv, dist_v, label="distance to the axis (mm)")], lines=[gc.dense_points],
                           labels=[(gc.centers[0], f"end {gc.ends[0]}"), (gc.centers[-1], f"end {gc.ends[1]}")],
                           figures=[out.dir / f"mesh_{shade}.png"], numbers=d,
                           caption=f"Length {gc.length:.4g} mm, mean radius {gc.mean_radius:.3g} mm. The surface is "
                                   "shaded by each vertex's distance to the fitted axis (the black line): a narrowing "
                                   "(stenosis) shows dark, a bulge bright. Drag to turn, scroll to zoom.")
     return gc, d
+
+
+def _for_view(V, F, *values):
+    """The mesh for the pictures and the 3D view, decimated once to ``tolerances.VIZ_MAX_FACES`` faces when it
+    has more (pymeshlab's quadric collapse: seconds on a million faces), and each per-vertex array on it (the
+    nearest original vertex's value: no blending, so periodic angles stay whole)."""
+    if len(F) <= tol.VIZ_MAX_FACES:
+        return (V, F, *values)
+    from scipy.spatial import cKDTree
+
+    V2, F2, _ = decimated(V, F, None, tol.VIZ_MAX_FACES, None)
+    idx = cKDTree(V).query(V2)[1]
+    return (V2, F2, *(np.asarray(v)[idx] for v in values))
 
 
 def _write_centerlines(out, stem, network, axis_format):
@@ -503,12 +519,13 @@ def run_fit_tree(V, F, mesh, out, ends, uinfo, *, axis_format="both", render=Tru
         and ``ParentId``; ``mesh_branches.ply`` has each vertex's ``branch``.
     """
     t0 = time.perf_counter()
-    tree = fit_vessel_tree(V, F, ends=ends)
+    pm = PreparedMesh(V, F, ends)  # checked once: the tree fit, the centre lines' inscribed radius
+    tree = fit_vessel_tree(pm)
     dt = time.perf_counter() - t0
     d = {**tree_to_dict(tree), **uinfo, "bbox_diagonal": float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))),
          "input": str(mesh), "time_s": dt}
     write_json(out("tree.json"), d)
-    _write_centerlines(out, "tree", centerline_network(tree, V, F), axis_format)
+    _write_centerlines(out, "tree", centerline_network(tree, pm), axis_format)
     vb = tree.vertex_branch.astype(float)
     ncol = 10 if len(tree.branches) <= 10 else 20  # one colour of the qualitative map per branch (cycled)
     cmap, shade = f"tab{ncol}", np.mod(vb, ncol)
@@ -516,18 +533,19 @@ def run_fit_tree(V, F, mesh, out, ends, uinfo, *, axis_format="both", render=Tru
     if render:
         nb, nj = len(tree.branches), len(tree.junctions)
         used = min(nb, ncol)  # the colour bar shows the colours in use (the same as mesh_branches.ply's)
-        render_mesh(out("tree.png"), V, F, shade, vmin=-0.5, vmax=used - 0.5, cmap=first_colors(cmap, used),
+        from scipy.spatial import cKDTree
+
+        axes = np.vstack([gc.dense_points for gc in tree.branches])
+        Vv, Fv, shade_v = _for_view(V, F, shade)
+        render_mesh(out("tree.png"), Vv, Fv, shade_v, vmin=-0.5, vmax=used - 0.5, cmap=first_colors(cmap, used),
                     cbar_label="branch (id in tree.json)", alpha=tol.VIZ_TREE_ALPHA,
                     lines=[gc.dense_points for gc in tree.branches], cbar_ticks=range(used), scale_bar="mm",
                     title=f"{Path(mesh).name}: {nb} branch{'es' * (nb != 1)}, {nj} junction{'s' * (nj != 1)}, "
                           f"{len(tree.paths)} paths; axes {sum(gc.length for gc in tree.branches):.0f} mm in all",
                     caption=f"Black lines: the branch axes; the translucent surface is coloured by branch. The "
                             f"paths run from end {tree.root} (the widest) to each other end.")
-        from scipy.spatial import cKDTree
-
-        axes = np.vstack([gc.dense_points for gc in tree.branches])
         write_report_html(out("report.html"), f"{Path(mesh).name}: vessel tree",
-                          [ViewMesh(V, F, cKDTree(axes).query(V)[0], label="distance to the axis (mm)")],
+                          [ViewMesh(Vv, Fv, cKDTree(axes).query(Vv)[0], label="distance to the axis (mm)")],
                           lines=[gc.dense_points for gc in tree.branches],
                           labels=[(e.center, f"end {i}") for i, e in enumerate(tree.ends)],
                           figures=[out.dir / "tree.png"], numbers=d,

@@ -323,7 +323,7 @@ def write_mesh(path, V, F, vertex_colors=None, vertex_scalars=None):
     ----------
     path : str or os.PathLike
         Output file; the extension picks the format: ``.ply`` (binary little
-        endian), ``.obj``, ``.off``, ``.stl`` (binary) or ``.vtp`` (ascii XML).
+        endian), ``.obj``, ``.off``, ``.stl`` (binary) or ``.vtp`` (XML, inline binary arrays).
     V : (n, 3) float64
         Vertex positions.
     F : (m, 3) int64
