@@ -320,6 +320,12 @@ MUTATIONS = {
         "    cum = np.interp(main.vertex_s[on] * r.length_a, r.s_a, -np.asarray(cumulative_deg))",
         ["tests/test_twist.py"],
     ),
+    "placement_turn_misreported": (
+        "vesselgp/pipeline.py",
+        "    turned = math.degrees(Rotation.from_matrix(R).magnitude())",
+        "    turned = math.degrees(Rotation.from_matrix(R.T @ R).magnitude())",
+        ["tests/test_join_vessels.py::test_cli_place"],
+    ),
     "checked_mesh_faces_unchecked": (
         "vesselgp/prepared.py",
         "    return CheckedMesh(topo, *_nondegenerate_faces(V, F))",

@@ -657,6 +657,9 @@ def test_cli_place(tmp_path, capsys):
     M = np.asarray(r["placement"]["matrix"])
     assert np.linalg.norm(M[:3, :3] @ e.center + M[:3, 3] - (eo.center + eo.direction)) < 0.05 * e.radius
     assert r["placement"]["moved_mm"] == pytest.approx(np.linalg.norm(eo.center + eo.direction - e.center), rel=0.02)
+    # the least rotation of the end's direction onto minus the other's turns by the angle between them
+    cos = -(e.direction @ eo.direction) / np.linalg.norm(e.direction) / np.linalg.norm(eo.direction)
+    assert r["placement"]["turned_deg"] == pytest.approx(np.degrees(np.arccos(cos)), abs=0.01)
     assert r["axial_stretch"] < 1.1 and (out / "joined_optimum.ply").is_file()
     capsys.readouterr()
     assert main(["join", str(CORONARY), "--end", "0", "--onto", str(Y), "--other-end", "2", "--place", "-1",

@@ -41,19 +41,20 @@ class ViewMesh:
         A plotly colour scale name.
     vrange : (float, float), optional
         The colour range (default the values' range).
-    color : str
-        Colour of an unshaded mesh.
+    color : str, optional
+        Colour of an unshaded mesh (default the renders' sand, ``tolerances.VIZ_OTHER_COLOR``).
     name : str
     opacity : float, optional
         Of a shaded mesh (default ``tolerances.REPORT_MESH_OPACITY``: the axis shows through).
     """
 
-    def __init__(self, V, F, values=None, *, label="", cmap="Viridis", vrange=None, color="#d8c9a8", name="mesh",
+    def __init__(self, V, F, values=None, *, label="", cmap="Viridis", vrange=None, color=None, name="mesh",
                  opacity=None):
         self.V, self.F = np.asarray(V, float), np.asarray(F, np.int64)
         self.opacity = tol.REPORT_MESH_OPACITY if opacity is None else float(opacity)
+        self.color = "rgb({},{},{})".format(*(round(255 * c) for c in tol.VIZ_OTHER_COLOR)) if color is None else color
         self.values = None if values is None else np.asarray(values, float)
-        self.label, self.cmap, self.vrange, self.color, self.name = label, cmap, vrange, color, name
+        self.label, self.cmap, self.vrange, self.name = label, cmap, vrange, name
 
 
 def _mesh_trace(go, m, period):
@@ -63,7 +64,7 @@ def _mesh_trace(go, m, period):
     common = dict(x=V[:, 0], y=V[:, 1], z=V[:, 2], i=F[:, 0], j=F[:, 1], k=F[:, 2], name=m.name,
                   flatshading=False, lighting=dict(ambient=0.55, diffuse=0.7, specular=0.1))
     if S is None:
-        return go.Mesh3d(color=m.color, opacity=0.35, hoverinfo="skip", **common)
+        return go.Mesh3d(color=m.color, opacity=tol.REPORT_CONTEXT_OPACITY, hoverinfo="skip", **common)
     lo, hi = m.vrange if m.vrange is not None else (float(np.nanmin(S)), float(np.nanmax(S)))
     return go.Mesh3d(intensity=S, colorscale=m.cmap, cmin=lo, cmax=hi, intensitymode="vertex", opacity=m.opacity,
                      colorbar=dict(title=dict(text=m.label, side="right"), len=0.8),

@@ -37,6 +37,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from . import tolerances as tol
 from ._validate import as_mesh, as_vector, mesh_arguments
@@ -177,7 +178,7 @@ def _placed(V, ends, end, other, gap):
     moved = tuple(replace(x, center=R @ x.center + t, direction=R @ x.direction) for x in ends)
     log.info("join_vessels: the moving vessel placed %.3g in front of the other end: its end moved %.3g, turned "
              "%.1f deg", gap, float(np.linalg.norm(moved[end].center - e.center)),
-             float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)))))
+             float(np.degrees(Rotation.from_matrix(R).magnitude())))
     return V @ R.T + t, moved, M
 
 

@@ -28,6 +28,7 @@ from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from . import tolerances as tol
 from .bulges import tree_bulges
@@ -859,7 +860,7 @@ def placement_to_dict(M, point):
     if M is None:
         return None
     R, t = M[:3, :3], M[:3, 3]
-    turned = math.degrees(math.acos(float(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
+    turned = math.degrees(Rotation.from_matrix(R).magnitude())
     c = np.asarray(point, float)  # where it is now; it came from R^T (c - t)
     return {"matrix": M, "turned_deg": turned, "moved_mm": float(np.linalg.norm(c - R.T @ (c - t)))}
 

@@ -466,6 +466,8 @@ ENDS_TIP_SEPARATION = 1.5
 # --- report.html (vesselgp.html_report) ------------------------------------------
 #: Opacity of the shaded mesh in the 3D view (below 1: the axis and the end labels show through).
 REPORT_MESH_OPACITY = 0.45
+#: ... and of an unshaded mesh drawn for context (the vessel joined to).
+REPORT_CONTEXT_OPACITY = 0.35
 #: The 3D view's walls: a mid grey, so that a white (untwisted) or sand-coloured vessel shows.
 REPORT_BACKGROUND = "rgb(176,181,190)"
 #: Where plotly's camera looks from, in units of the scene's half-extent (plotly's default is
