@@ -348,9 +348,9 @@ def _hemisphere(V, faces, p, g, h, L):
     lu = float(np.linalg.norm(u))
     log.debug("tip candidate %d: R %.4g, sphere %.4g (rms %.2g R), axis flatness %.2g, pole %.1f deg",
               p, R, Rs, rms / R, flatness, np.degrees(np.arccos(np.clip(u @ axis / max(lu, 1e-300), -1, 1))))
-    if flatness > tol.ENDS_TIP_AXIS_SPREAD:
+    if not _walls_across_one_axis(flatness):
         return None  # not a dome on a tube
-    if u @ axis < np.cos(np.radians(tol.ENDS_TIP_AXIS_DEG)) * lu:
+    if not _on_axis(u, axis):
         return _pole(V, g, fit, R, dstar)  # not on the tube's axis seen from the dome: retry from its pole
     ring = np.flatnonzero(rg["band"] == tube[0])
     region = np.flatnonzero(g <= tol.ENDS_ROUNDED_REGION * R)
@@ -406,6 +406,19 @@ def _cylinder_axis(N, w):
     """
     w, U = np.linalg.eigh((N * w[:, None]).T @ N)
     return U[:, 0], float(w[0] / max(w[1], 1e-300))
+
+
+def _walls_across_one_axis(flatness):
+    """Whether a tube's face normals, with scatter ratio ``flatness`` (:func:`_cylinder_axis`), are all
+    across one axis: at most ``tolerances.ENDS_TIP_AXIS_SPREAD`` (a cone of half-angle phi has
+    ``2 tan(phi)**2``: the edge is phi = 21.2 degrees)."""
+    return flatness <= tol.ENDS_TIP_AXIS_SPREAD
+
+
+def _on_axis(u, axis):
+    """Whether the tip, at ``u`` (3,) from the end's centre, lies within ``tolerances.ENDS_TIP_AXIS_DEG``
+    of the unit ``axis`` (3,)."""
+    return bool(u @ axis >= np.cos(np.radians(tol.ENDS_TIP_AXIS_DEG)) * float(np.linalg.norm(u)))
 
 
 def _axis_fit(d, C, w, dstar):
