@@ -205,3 +205,36 @@ def test_equator_needs_its_run_of_narrow_rings(run, crossed):
     narrow[4:4 + run] = True
     assert (4 in _crossing(np.ones(12, dtype=bool), narrow)) is crossed
     assert (len(_crossing(np.ones(12, dtype=bool), narrow)) > 0) is crossed
+
+
+# --------------------------------------------------------------------------- #
+# which maxima are examined: persistence and separation
+# --------------------------------------------------------------------------- #
+@pytest.mark.parametrize("factor, examined", [(1.02, True), (0.98, False)])
+def test_a_maximum_is_examined_from_its_persistence_edge(factor, examined):
+    """D along a path graph rises to 10 h, falls to a saddle at 6 h and rises again to 6 h + p: the
+    second maximum's persistence is p exactly (the elder rule); it is examined when p is at least
+    ENDS_TIP_MIN_PERSISTENCE h."""
+    import scipy.sparse as sp
+
+    from vesselgp.mesh._ends_tips import _worth_examining, persistent_maxima
+
+    h = 0.2
+    p = factor * tol.ENDS_TIP_MIN_PERSISTENCE * h
+    D = np.concatenate([np.linspace(0.0, 10 * h, 11), np.linspace(10 * h, 6 * h, 6)[1:],
+                        np.linspace(6 * h, 6 * h + p, 6)[1:]])
+    n = len(D)
+    E = np.c_[np.arange(n - 1), np.arange(1, n)]
+    G = sp.csr_array((np.ones(2 * (n - 1)), (np.r_[E[:, 0], E[:, 1]], np.r_[E[:, 1], E[:, 0]])), shape=(n, n))
+    cands = persistent_maxima(G, E, D, np.ones(n, dtype=bool))
+    assert [c[0] for c in cands] == [10, n - 1] and cands[1][1] == pytest.approx(p)
+    assert ((n - 1) in [c[0] for c in _worth_examining(cands, h)]) is examined
+
+
+@pytest.mark.parametrize("factor, on_it", [(0.98, True), (1.02, False)])
+def test_a_maximum_near_a_found_tip_is_on_it_at_its_edge(factor, on_it):
+    from vesselgp.mesh._ends_tips import _on_a_tip
+
+    tip = {"center": np.array([1.0, 2.0, 3.0]), "radius": 2.0}
+    x = tip["center"] + factor * tol.ENDS_TIP_SEPARATION * tip["radius"] * np.array([0.6, 0.0, -0.8])
+    assert _on_a_tip(x, [tip]) is on_it

@@ -118,10 +118,8 @@ def find_tips(V, F, N, A, G, E, h, sources, used):
     cands = extra + persistent_maxima(G, E, D, used)
     tips = []
     tested = 0
-    for p, pers in cands:
-        if pers < tol.ENDS_TIP_MIN_PERSISTENCE * h:
-            break
-        if any(np.linalg.norm(V[p] - t["center"]) < tol.ENDS_TIP_SEPARATION * t["radius"] for t in tips):
+    for p, pers in _worth_examining(cands, h):
+        if _on_a_tip(V[p], tips):
             continue  # another maximum on a dome already found
         tested += 1
         tip = _tip(V, (F, N, A), G, p, pers, h)
@@ -129,6 +127,18 @@ def find_tips(V, F, N, A, G, E, h, sources, used):
             tips.append(tip)
     log.debug("tips: %d maxima, %d examined, %d tips", len(cands), tested, len(tips))
     return tips
+
+
+def _worth_examining(cands, h):
+    """The maxima ``cands`` (vertex, persistence) whose persistence is at least
+    ``tolerances.ENDS_TIP_MIN_PERSISTENCE`` median edges ``h``: a lower one is noise on a ridge."""
+    return [(p, pers) for p, pers in cands if pers >= tol.ENDS_TIP_MIN_PERSISTENCE * h]
+
+
+def _on_a_tip(x, tips):
+    """Whether the point ``x`` (3,) is closer than ``tolerances.ENDS_TIP_SEPARATION`` radii to the centre
+    of one of the ``tips`` found (records of :func:`find_tips`)."""
+    return any(np.linalg.norm(x - t["center"]) < tol.ENDS_TIP_SEPARATION * t["radius"] for t in tips)
 
 
 def persistent_maxima(G, E, D, used):
