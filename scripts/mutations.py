@@ -917,6 +917,36 @@ MUTATIONS = {
         '< 1.1 * tol.ENDS_TIP_SEPARATION * t["radius"] for t in tips)',
         ["tests/test_tip_checks.py::test_a_maximum_near_a_found_tip_is_on_it_at_its_edge"],
     ),
+    "tree_final_turns_not_zoned": (
+        "vesselgp/tree.py",
+        '    if _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial):',
+        '    if False:',
+        ["tests/test_real_trees.py::test_every_path_runs_inside_the_lumen"],
+    ),
+    "medial_sharp_s_ignored": (
+        "vesselgp/medial_zones.py",
+        '        bad[np.clip(np.rint(np.asarray(sharp_s, np.float64) * (n - 1)).astype(np.int64), 0, n - 1)] = True',
+        '        pass',
+        ["tests/test_medial_zones.py::test_a_turn_found_on_the_final_cylinder_becomes_the_centre_line"],
+    ),
+    "voronoi_never_bridged": (
+        "vesselgp/centerlines.py",
+        '        if bridged or np.all(np.isfinite(dist[seeds])):',
+        '        if True:',
+        ["tests/test_real_trees.py::test_centre_lines_of_a_coarse_real_tree_reach_every_end"],
+    ),
+    "tree_singular_branch_raises": (
+        "vesselgp/tree.py",
+        '    fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit",\n                        singular="stop")',
+        '    fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit")',
+        ["tests/test_real_trees.py::test_a_stub_too_coarse_to_fit_takes_its_centre_line"],
+    ),
+    "fixed_points_singular_looks_settled": (
+        "vesselgp/fit.py",
+        '            out.append(replace(it, converged=False, step=float("inf"), axis=axes[b], singular=True))',
+        '            out.append(replace(it, converged=False, step=0.0, axis=axes[b], singular=True))',
+        ["tests/test_fit.py::test_a_singular_problem_stops_alone_in_a_tree_and_raises_alone"],
+    ),
 }
 
 

@@ -457,3 +457,29 @@ def test_a_free_end_node_moves_onto_the_axis_and_a_pinned_one_stays(free):
             assert np.hypot(*nodes[k, :2]) < 1e-3, nodes[k]
         assert np.hypot(*nodes[-1 - k, :2]) == 0.0  # the pinned end
         assert np.abs(nodes[3:-3, :2]).max() < 0.01  # the middle, on the axis
+
+
+def test_a_singular_problem_stops_alone_in_a_tree_and_raises_alone(monkeypatch):
+    """``fixed_points(..., singular="stop")`` (a tree's branches): a problem with no data (every vertex's
+    area 0: no wall around its nodes, its circle-fit system singular) stops, marked singular with an
+    infinite step, while the others get bit for bit what they get alone; by default it raises."""
+    import dataclasses
+
+    import vesselgp.fit as fit
+    from vesselgp import tolerances as tol
+    from vesselgp.errors import NotTubularError
+
+    seen, real = [], fit.fixed_points
+    monkeypatch.setattr(fit, "fixed_points", lambda problems, **kw: seen.extend(problems) or real(problems, **kw))
+    ves = synthetic_vessel("arc", radius=R0, n_around=24, remesh=False, noise=0.01, seed=5)
+    fit_generalized_cylinder(ves.V, ves.F)
+    good = seen[0]
+    empty = dataclasses.replace(good, areas=np.zeros_like(good.areas))
+    kw = dict(lam=tol.GC_LAMBDA, mu=tol.GC_MU, max_iter=tol.GC_MAX_ITER)
+    a, b = real([good, empty], singular="stop", **kw)
+    alone = real([good], **kw)[0]
+    assert a.converged and not a.singular and a.count == alone.count
+    assert np.array_equal(a.nodes, alone.nodes) and np.array_equal(a.radii, alone.radii)
+    assert b.singular and not b.converged and b.step == np.inf and b.count == 0
+    with pytest.raises(NotTubularError, match="singular"):
+        real([good, empty], **kw)

@@ -121,3 +121,16 @@ def test_the_bend_is_judged_in_the_fitted_radius_and_past_the_junction_zone():
     assert len(medial_zones(fit, LINE_FINE, ones, 1.0)[1]) == 0
     assert len(medial_zones(fit, LINE_FINE, ones, 1.0, fit_radius=ones, skip_start=11.5)[1]) == 0
     assert len(medial_zones(fit, LINE_FINE, ones, 1.0, fit_radius=ones, skip_start=8.0)[1]) == 1
+
+
+def test_a_turn_found_on_the_final_cylinder_becomes_the_centre_line():
+    """``sharp_s``: where the branch's final cylinder turns tighter than its final radius (judged after the
+    junctions, :func:`vesselgp.tree._sharp_turns_to_centre_line`), the axis becomes the line too, over a
+    radius either side. A fit 0.3 radii off the line (under the departure) with the turn flagged at its
+    middle: the zone is [9, 11] to a quarter-radius sample, the line inside it; unflagged, no zone."""
+    fit = _bump(0.3)
+    assert medial_zones(fit, LINE, ONES, 1.0)[1].shape == (0, 2)
+    out, zones = medial_zones(fit, LINE, ONES, 1.0, sharp_s=[0.5])
+    assert zones.shape == (1, 2) and np.allclose(zones[0], [9.0, 11.0], atol=0.26)
+    mid = (out[:, 0] > zones[0, 0] + 0.3) & (out[:, 0] < zones[0, 1] - 0.3)
+    assert mid.any() and np.abs(out[mid, 1:]).max() < 1e-6

@@ -49,11 +49,42 @@ def _closed(V, F):
     return np.vstack(Vs), np.vstack(Fs)
 
 
-@pytest.fixture(scope="module", params=FITS)
+#: Real meshes made coarser by pymeshlab, which the fit refused before (issue #34: other meshes of the same
+#: anatomy will be tried): the pulmonary artery remeshed at 1.4 edges turned tighter than its final radius
+#: (kappa r 1.02) where its first fit did not.
+REMESHED = {"cbcl_pulmonary-artery_closed.vtp@remeshed 1.4": ("remeshed", 1.4)}
+
+
+def remeshed(V, F, factor):
+    """pymeshlab's isotropic remeshing of (V, F) at ``factor`` times its median edge (4 iterations)."""
+    import pymeshlab
+    E = igl.edges(F)
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(V, F))
+    ms.meshing_isotropic_explicit_remeshing(iterations=4, targetlen=pymeshlab.PureValue(
+        factor * float(np.median(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)))))
+    m = ms.current_mesh()
+    return m.vertex_matrix().astype(np.float64), m.face_matrix().astype(np.int64)
+
+
+def _decimated(V, F, fraction):
+    """pymeshlab's quadric edge collapse of (V, F) to ``fraction`` of its faces (topology and boundary kept)."""
+    import pymeshlab
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(V, F))
+    ms.meshing_decimation_quadric_edge_collapse(targetperc=fraction, preservetopology=True, preserveboundary=True)
+    m = ms.current_mesh()
+    return m.vertex_matrix().astype(np.float64), m.face_matrix().astype(np.int64)
+
+
+@pytest.fixture(scope="module", params=FITS + list(REMESHED))
 def real_tree(request):
-    name = request.param
+    name = request.param.split("@")[0]
     V, F = vesselgp.read_mesh(REAL / name)[:2]
     V = V * MM.get(name, 1.0)
+    if request.param in REMESHED:
+        how, factor = REMESHED[request.param]
+        V, F = (remeshed if how == "remeshed" else _decimated)(V, F, factor)
     return name, V, F, vesselgp.fit_vessel_tree(V, F), vmtk_lines(name)
 
 
@@ -246,3 +277,73 @@ def test_twist_between_a_real_tree_and_its_twisted_remeshed_moved_copy(profile):
     u = np.array([min(partings, key=lambda pm: np.linalg.norm(pm[1] - P))[0] for P in r.landmarks_a])
     truth = np.degrees(np.diff(alpha(u)))
     assert np.all(np.abs(np.degrees(r.segment_twist) - truth) <= 2.0), (np.degrees(r.segment_twist), truth)
+
+
+# --------------------------------------------------------------------------- #
+# centre lines of a coarse real tree (issue #34: a tube a few edges around)
+# --------------------------------------------------------------------------- #
+def test_centre_lines_of_a_coarse_real_tree_reach_every_end():
+    """The XCAT coronary tree decimated to 30 % (pymeshlab's quadric edge collapse, 3688 vertices; its thin
+    coronaries 4-6 edges around, VMTK's lines of the original mesh all inside it): the tetrahedra across them
+    have their circumcentres outside the wall and the inside Voronoi vertices fall apart (ends were "not
+    connected to the root through the lumen"); bridged by the tetrahedra whose centroids are inside, every
+    end is reached, the lines stay inside (>= 99 % of samples) and VMTK's lines lie 0.105 local radii from
+    them on average (asserted within 1.5x). (pymeshlab's isotropic remeshing of this tree is not used: its
+    output depends on the process's threads, and at 1.4 edges it can pinch the thin coronaries shut, VMTK's
+    lines leaving the surface for 11-41 samples; the lines are then rightly refused.)"""
+    mean_off = 0.105
+    from scipy.sparse.csgraph import connected_components
+
+    from vesselgp.centerlines import _voronoi_graph, centerlines
+    from vesselgp.mesh._geometry import closed_by_fans
+
+    name = "xrayangio_xcat-coronary-tree_open.stl"
+    V, F = vesselgp.read_mesh(REAL / name)[:2]
+    V, F = _decimated(V, F, 0.3)
+    ends = vesselgp.vessel_ends(V, F)
+    assert len(ends) == 11
+    loops = igl.boundary_loop_all(F)
+    lines = vmtk_lines(name)
+    Vc, Fc = closed_by_fans(V, F, loops)
+    assert all(np.all(np.abs(igl.fast_winding_number(Vc, Fc, p)) >= 0.5) for p, _ in lines)  # a faithful surface
+    cc, _, inside, G = _voronoi_graph(V, F, loops)  # unbridged: the ends' seeds lie in separate pieces
+    lab = connected_components(G, directed=False)[1]
+    ids = np.flatnonzero(inside)
+    seeds = ids[cKDTree(cc[ids]).query([e.center for e in ends])[1]]
+    assert len(set(lab[seeds])) > 1
+    root = int(np.argmax([e.radius for e in ends]))
+    c = centerlines(V, F, ends, root, loops=loops)
+    assert sorted(c.tips) == [j for j in range(11) if j != root]
+    P = np.vstack(c.points)
+    assert np.mean(np.abs(igl.fast_winding_number(Vc, Fc, P)) >= 0.5) >= 0.99
+    Pr, Rr = np.vstack([p for p, _ in lines]), np.concatenate([r for _, r in lines])
+    assert np.mean(cKDTree(P).query(Pr)[0] / Rr) <= 1.5 * mean_off
+
+
+def test_a_stub_too_coarse_to_fit_takes_its_centre_line(caplog):
+    """The gmsh arch decimated to 30 % (697 vertices; its arch branches 4-6 edges around): an arch branch's
+    circle-fit system is singular (no wall around some of its nodes), which refused the whole tree
+    ("the generalized-cylinder fit is singular"). That branch now takes the lumen's centre line, as a fit
+    that does not settle does: it has a medial zone and its axis lies on VMTK's centre line of the original
+    mesh (within 0.25 of its inscribed radius; 0.11 measured), and every path stays inside the lumen."""
+    import logging
+
+    name = "gmsh_aortic-arch_open.stl"
+    V, F = vesselgp.read_mesh(REAL / name)[:2]
+    V, F = _decimated(V * MM[name], F, 0.3)
+    with caplog.at_level(logging.INFO, logger="vesselgp.tree"):
+        tree = vesselgp.fit_vessel_tree(V, F)
+    singular = [int(r.getMessage().split()[2].rstrip(":")) for r in caplog.records if "is singular" in r.getMessage()]
+    assert singular, "no branch was singular: the test no longer reaches the case"
+    lines = vmtk_lines(name)
+    P, R = np.vstack([p for p, _ in lines]), np.concatenate([r for _, r in lines])
+    for b in singular:
+        assert len(tree.medial_zones[b])
+        d, i = cKDTree(P).query(tree.branches[b].dense_points)
+        assert np.max(d / R[i]) <= 0.25
+    assert len(tree.paths) == len(tree.ends) - 1
+    Vc, Fc = _closed(V, F)
+    for p in tree.paths:
+        arc = chord_length(p.dense_points)
+        inner = (arc > tree.ends[p.ends[0]].radius) & (arc[-1] - arc > tree.ends[p.ends[1]].radius)
+        assert np.mean(np.abs(igl.fast_winding_number(Vc, Fc, p.dense_points[inner])) >= 0.5) >= 0.99

@@ -26,7 +26,8 @@ from .errors import NotTubularError
 from .rotations import perpendicular
 
 __all__ = ["Axis", "AxisStack", "interp_frames", "hat", "hat_matrix", "difference_matrix", "circle_fit_correction",
-           "circle_fit_sums", "circle_fit_solve", "checked_solution", "solve_banded_spd", "local_coords"]
+           "circle_fit_sums", "circle_fit_solve", "checked_solution", "solve_banded_spd", "banded_spd_or_none",
+           "local_coords"]
 
 
 def _segment_table(dp, dfr, kvec=None):
@@ -497,7 +498,8 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
     return circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends)
 
 
-def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=True, mirror_ends=False):
+def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=True, mirror_ends=False,
+                     singular="raise"):
     """The regularised normal equations of :func:`circle_fit_correction` from its data sums
     ``S`` (K - 1, 21) and ``R`` (K - 1, 6) (:func:`circle_fit_sums`), solved: (K, 3) corrections.
 
@@ -517,7 +519,10 @@ def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=Tru
     banded system: from the uncorrected axis and its frame's tangent instead, the lag contracted
     by 0.4 an iteration and a tree's open root branch took 5-6 iterations instead of 3, stopping
     1.6e-4 radii short. At the fixed point the correction is zero and the ghost the mirror of the
-    axis itself."""
+    axis itself.
+
+    ``singular="none"`` returns None where the system is singular (a stretch with no wall
+    around it) instead of raising :class:`NotTubularError`."""
     K = len(centers)
     n3 = 3 * K
     rhs = np.zeros(n3)
@@ -578,7 +583,9 @@ def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=Tru
             T0 /= np.linalg.norm(T0)  # (its sense does not matter to a mirror)
             v, g = centers[i1] - centers[i0], centers[i1] + corr[i1] - centers[i0]
             b[[3 * i1, 3 * i1 + 1]] -= lw * (E[i1] @ (g - 2.0 * (g @ T0) * T0 + v))
-        sol = solve_banded_spd(ab, b)
+        sol = banded_spd_or_none(ab, b)
+        if sol is None:
+            return None if singular == "none" else checked_solution(None)
         corr = sol[0::3, None] * E[:, 0] + sol[1::3, None] * E[:, 1]
     return corr
 
@@ -605,8 +612,13 @@ def solve_banded_spd(ab, rhs):
     A matrix that is not positive definite (``info > 0``), or a non-finite solution, raises
     :class:`NotTubularError` through :func:`checked_solution`.
     """
+    return checked_solution(banded_spd_or_none(ab, rhs))
+
+
+def banded_spd_or_none(ab, rhs):
+    """:func:`solve_banded_spd`'s solution, or None where it would raise (singular or non-finite)."""
     _, x, info = _pbsv(ab, rhs, lower=1)
-    return checked_solution(x if info == 0 else None)
+    return x if info == 0 and np.all(np.isfinite(x)) else None
 
 
 def local_coords(axis, P, s):

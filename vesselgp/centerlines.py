@@ -17,6 +17,13 @@ meshing of blood vessels from MR and CT angiography"):
    cost, the integral of ``ds / R`` (VMTK's fast marching with speed ``R``, here Dijkstra on
    the diagram's own edges), keeps to the middle of the lumen, crosses a junction zone or a
    sac through its widest part and never leaves the surface.
+   *1b.* On a tube only a few edges around, the tetrahedra across it can have their
+   circumcentres outside its wall and the inside Voronoi vertices fall apart. When an end is not
+   connected to the root through them, the diagram is built again with those tetrahedra whose
+   centroid is inside as bridges (node at the centroid, radius its distance to the nearest
+   corner: a costly step, taken only where nothing else connects). Only meshes that would
+   otherwise be refused take this step, so the others' lines do not depend on how qhull splits
+   co-spherical points into tetrahedra (centroids do, circumcentres do not).
 3. **One source, every target.** One Dijkstra run from the root end's seed (the inside Voronoi
    vertex nearest its centre) gives the path to every other end; the paths form a tree.
 
@@ -88,8 +95,12 @@ def _circumspheres(P, T):
     return a + x, R
 
 
-def _voronoi_graph(V, F, loops):
-    """Inside Voronoi vertices (points, radii) and the csr graph of their ``ds / R`` edges."""
+def _voronoi_graph(V, F, loops, bridged=False):
+    """Inside Voronoi vertices (points, radii) and the csr graph of their ``ds / R`` edges.
+
+    With ``bridged``, a tetrahedron whose circumcentre lies outside the surface but whose centroid
+    is inside joins the diagram too, its node at the centroid and its radius the distance from
+    there to its nearest corner (step 1b of the module notes)."""
     sub = spread_subset(len(V), tol.MEDIAL_MAX_POINTS)
     P = V[sub]
     try:
@@ -103,6 +114,15 @@ def _voronoi_graph(V, F, loops):
     w = np.zeros(len(cc))
     w[ok] = igl.fast_winding_number(Vc, Fc, cc[ok])
     inside = ok & (np.abs(w) > 0.5)  # either orientation of a closed surface
+    if bridged:
+        out = np.flatnonzero(~inside)
+        T = tri.simplices[out]
+        cen = P[T].mean(axis=1)
+        bridge = np.abs(igl.fast_winding_number(Vc, Fc, cen)) > 0.5
+        out, cen = out[bridge], cen[bridge]
+        cc[out] = cen
+        R[out] = np.min(np.linalg.norm(P[T[bridge]] - cen[:, None], axis=2), axis=1)
+        inside[out] = True
     nb = tri.neighbors
     i = np.repeat(np.arange(len(nb)), 4)
     j = nb.ravel()
@@ -180,11 +200,16 @@ def centerlines(V, F, ends, root, *, loops=None):
     """
     if loops is None:
         loops = igl.boundary_loop_all(F)
-    cc, R, inside, G = _voronoi_graph(V, F, loops)
-    ids = np.flatnonzero(inside)
-    kd = cKDTree(cc[ids])
-    seeds = [int(ids[kd.query(e.center)[1]]) for e in ends]  # each end's nearest inside Voronoi vertex
-    dist, pred = dijkstra(G, directed=False, indices=seeds[root], return_predecessors=True)
+    for bridged in (False, True):
+        cc, R, inside, G = _voronoi_graph(V, F, loops, bridged=bridged)
+        ids = np.flatnonzero(inside)
+        kd = cKDTree(cc[ids])
+        seeds = [int(ids[kd.query(e.center)[1]]) for e in ends]  # each end's nearest inside Voronoi vertex
+        dist, pred = dijkstra(G, directed=False, indices=seeds[root], return_predecessors=True)
+        if bridged or np.all(np.isfinite(dist[seeds])):
+            break
+        log.info("centre lines: the inside Voronoi vertices fall apart between the ends (a tube a few edges "
+                 "around); tetrahedra whose centroids are inside bridge them")
     tips, points, radius = [], [], []
     for j, e in enumerate(ends):
         if j == root:

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import logging
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import igl
 import numpy as np
@@ -50,10 +50,10 @@ from ._arrays import thinned
 from ._interop import polylines_to_pyvista
 from ._validate import as_vector
 from .axis import (Axis, AxisStack, circle_fit_solve, circle_fit_sums, hat, interp_frames,
-                   local_coords, solve_banded_spd)
+                   banded_spd_or_none, local_coords, solve_banded_spd)
 from .curves import _chords, _resample_arclength, chord_length, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError
-from .inside import check_axis_bend, check_axis_inside
+from .inside import check_axis_bend, check_axis_inside, sharp_bends
 from .mesh import select_ends
 from .mesh.scale import scale_of
 from .mesh.geodesic import GeodesicDistances
@@ -188,8 +188,9 @@ def _radius_fit(s, rho, w, K, mu):
     return _radius_solve(*_radius_sums(s, rho, w, K), mu)
 
 
-def _radius_solve(diag, off, rhs, mu):
-    """Eq. 4's tridiagonal system from its data sums (:func:`_radius_sums`) and ``mu``, solved: (K,)."""
+def _radius_solve(diag, off, rhs, mu, singular="raise"):
+    """Eq. 4's tridiagonal system from its data sums (:func:`_radius_sums`) and ``mu``, solved: (K,)
+    (None where singular with ``singular="none"``)."""
     K = len(diag)
     Wbar = float(diag.mean())
     reg = mu * Wbar
@@ -198,7 +199,7 @@ def _radius_solve(diag, off, rhs, mu):
     ab = np.zeros((2, K))
     ab[0] = diag + d1 + tol.GC_RADIUS_RIDGE * Wbar
     ab[1, :-1] = off - reg
-    return solve_banded_spd(ab, rhs)
+    return banded_spd_or_none(ab, rhs) if singular == "none" else solve_banded_spd(ab, rhs)
 
 
 def _radius_sums(s, rho, w, K, nodeoff=None, total=None):
@@ -521,6 +522,14 @@ def check_cylinder_bend(gc, scale, skip_start=0.0, skip=None):
                     points=gc.dense_points, scale=scale, skip_start=skip_start, skip=skip)
 
 
+def cylinder_sharp_bends(gc, skip_start=0.0, skip=None):
+    """Where :func:`check_cylinder_bend` would refuse a fitted cylinder: the dense samples' ``s``
+    (normalised arc length) that turn tighter than the radius there, (j,) float64."""
+    bad, _ = sharp_bends(gc.dense_s, gc.length, gc.dense_frames[:, 0], gc.radius_at(gc.dense_s),
+                         skip_start=skip_start, skip=skip)
+    return gc.dense_s[bad]
+
+
 def _spread_to_neighbours(adjacency, sub, s_sub):
     """Parameters of every vertex from those of the subset ``sub``: the mean over a vertex's
     mesh neighbours that have one, ring by ring outwards from the subset, (n,) float64.
@@ -604,7 +613,7 @@ def fixed_point(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_i
     return fixed_points([problem], lam=lam, mu=mu, max_iter=max_iter, what=what)[0]
 
 
-def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit"):
+def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit", singular="raise"):
     """Iterate Eq. 3 and Eq. 5 of independent problems (a tree's branches) to their fixed points.
 
     The problems run in lock step on one :class:`vesselgp.axis.AxisStack`: each iteration
@@ -623,6 +632,10 @@ def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit"
     max_iter : int
     what : str
         Names the fit in the non-convergence warning.
+    singular : {"raise", "stop"}
+        A problem whose system is singular (a stretch with no wall around it) raises
+        :class:`NotTubularError`, or (``"stop"``, a tree's branches) stops there with
+        ``singular`` set, ``converged`` False and an infinite ``step``.
 
     Returns
     -------
@@ -639,11 +652,11 @@ def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit"
     for _ in range(max_iter):
         if stack is None or stack.ids != running:
             stack = _ProblemStack([problems[b] for b in running], running)
-        new = _iterate(stack, [states[b] for b in running], windows, lam, mu)
+        new = _iterate(stack, [states[b] for b in running], windows, lam, mu, singular == "stop")
         for b, st in zip(running, new):
             states[b] = st
         windows = None
-        running = [b for b in running if not states[b].converged]
+        running = [b for b in running if not (states[b].converged or states[b].singular)]
         if not running:
             return states
     for _ in running:
@@ -665,6 +678,7 @@ class _Iteration:
     inside: np.ndarray | None = None
     step: float = float("inf")
     axis: Axis | None = None  # the axis this iteration worked on (its frame is carried to the next)
+    singular: bool = False  # its system was singular (fixed_points with singular="stop")
 
 
 class _ProblemStack:
@@ -688,9 +702,10 @@ class _ProblemStack:
             self.total = int(K.sum())
 
 
-def _iterate(stack, its, windows, lam, mu):
+def _iterate(stack, its, windows, lam, mu, stop_singular=False):
     """One outer iteration of every problem on ``stack``: project (s_i), circle-fit correction
-    (Eq. 3), radius (Eq. 5), resample. ``windows`` (one per problem) on the first iteration."""
+    (Eq. 3), radius (Eq. 5), resample. ``windows`` (one per problem) on the first iteration. With
+    ``stop_singular`` a problem whose system is singular is returned unchanged, marked singular."""
     probs = stack.problems
     axes = [Axis(it.nodes, p.initial_normal, carry=it.axis) for it, p in zip(its, probs)]
     ax = AxisStack(axes, stack.PT, stack.counts)
@@ -714,9 +729,14 @@ def _iterate(stack, its, windows, lam, mu):
     out = []
     for b, (it, p, r) in enumerate(zip(its, probs, stack.slices)):
         K, o = len(it.nodes), int(stack.nodeoff[b])
+        how = "none" if stop_singular else "raise"
         corr = circle_fit_solve(axes[b].node_frames(), it.nodes, circle[0][o:o + K - 1], circle[1][o:o + K - 1],
-                                lam, p.rscale, p.pin, p.mirror)
-        radii = _radius_solve(radius[0][o:o + K], radius[1][o:o + K - 1], radius[2][o:o + K], mu)
+                                lam, p.rscale, p.pin, p.mirror, singular=how)
+        radii = None if corr is None else _radius_solve(radius[0][o:o + K], radius[1][o:o + K - 1],
+                                                        radius[2][o:o + K], mu, singular=how)
+        if radii is None:
+            out.append(replace(it, converged=False, step=float("inf"), axis=axes[b], singular=True))
+            continue
         out.append(_advance(it, axes[b], corr, radii, s[r], w[r], jac[r], inside[b], p.rscale))
     return out
 

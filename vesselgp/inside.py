@@ -28,7 +28,7 @@ from .errors import NotTubularError, OptionError
 from .mesh import bbox_diagonal, format_point, mesh_topology
 from .mesh._geometry import closed_by_fans
 
-__all__ = ["SurfaceWinding", "axis_winding", "check_axis_bend", "check_axis_inside"]
+__all__ = ["SurfaceWinding", "axis_winding", "check_axis_bend", "check_axis_inside", "sharp_bends"]
 
 
 class SurfaceWinding:
@@ -147,6 +147,31 @@ def check_axis_inside(V, F, s, points, radii, *, loops=None, ends_margin=None, w
     )
 
 
+def sharp_bends(s, length, tangents, radii, *, ends_margin=None, skip_start=0.0, skip=None):
+    """The samples where an axis bends tighter than its radius, as :func:`check_axis_bend` judges them.
+
+    Parameters are those of :func:`check_axis_bend`.
+
+    Returns
+    -------
+    bad : (q,) bool
+        Judged samples (past the margins and ``skip_start``, outside ``skip``) with
+        ``kappa r >= tolerances.GC_MAX_BEND``.
+    kr : (q,) float64
+        ``kappa r`` at every sample.
+    """
+    s = np.asarray(s, np.float64)
+    arc = s * float(length)
+    kappa = np.linalg.norm(np.gradient(np.asarray(tangents, np.float64), arc, axis=0), axis=1)
+    radii = np.asarray(radii, np.float64)
+    margin = float(np.mean(radii)) if ends_margin is None else float(ends_margin)
+    keep = (arc >= margin + float(skip_start)) & (float(length) - arc >= margin)
+    for z0, z1 in np.zeros((0, 2)) if skip is None else np.asarray(skip, np.float64):
+        keep &= (s < z0) | (s > z1)
+    kr = kappa * radii
+    return keep & (kr >= tol.GC_MAX_BEND), kr
+
+
 def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends_margin=None, skip_start=0.0,
                     skip=None):
     """Raise :class:`NotTubularError` where the axis bends tighter than its radius.
@@ -200,14 +225,7 @@ def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends
     vesselgp.errors.NotTubularError: the fitted axis bends tighter than its radius at s = 0.32...: curvature x radius = 1.50 (a tube needs less than 1; ...
     """
     s = np.asarray(s, np.float64)
-    arc = s * float(length)
-    kappa = np.linalg.norm(np.gradient(np.asarray(tangents, np.float64), arc, axis=0), axis=1)
-    radii = np.asarray(radii, np.float64)
-    margin = float(np.mean(radii)) if ends_margin is None else float(ends_margin)
-    keep = (arc >= margin + float(skip_start)) & (float(length) - arc >= margin)
-    for z0, z1 in np.zeros((0, 2)) if skip is None else np.asarray(skip, np.float64):
-        keep &= (s < z0) | (s > z1)
-    bad = keep & (kappa * radii >= tol.GC_MAX_BEND)
+    bad, kr = sharp_bends(s, length, tangents, radii, ends_margin=ends_margin, skip_start=skip_start, skip=skip)
     if not bad.any():
         return
     k = int(np.flatnonzero(bad)[0])
@@ -215,7 +233,7 @@ def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends
     if points is not None:
         where += f" (point {format_point(np.asarray(points)[k], float(length) if scale is None else scale)})"
     raise NotTubularError(
-        f"the fitted axis bends tighter than its radius {where}: curvature x radius = {kappa[k] * radii[k]:.2f} "
+        f"the fitted axis bends tighter than its radius {where}: curvature x radius = {kr[k]:.2f} "
         f"(a tube needs less than {tol.GC_MAX_BEND:g}; its sections would overlap); likely too few vertices "
         "around a non-circular section (remesh finer, e.g. pymeshlab meshing_isotropic_explicit_remeshing, "
         "or fit with a stiffer axis, e.g. lam=1.0), or a U-turn tighter than the radius"

@@ -52,7 +52,8 @@ def _feet(X, L, aL):
     return aL[seg] + np.linalg.norm(foot - L[seg], axis=1), foot, np.sqrt(d2)
 
 
-def medial_zones(nodes, line, radius, rscale, *, through=(False, False), fit_radius=None, skip_start=0.0):
+def medial_zones(nodes, line, radius, rscale, *, through=(False, False), fit_radius=None, skip_start=0.0,
+                 sharp_s=None):
     """A branch's fitted axis with the stretches far from its centre line replaced by the line.
 
     Parameters
@@ -73,6 +74,10 @@ def medial_zones(nodes, line, radius, rscale, *, through=(False, False), fit_rad
     skip_start : float, optional
         Arc length of the axis from its start where its turn is not judged (a child's junction
         zone, where it turns off its parent by design).
+    sharp_s : (j,) float64, optional
+        Normalised arc lengths of the axis where it is known to turn tighter than its radius
+        (judged on the branch's final cylinder, :func:`vesselgp.fit.cylinder_sharp_bends`): they
+        are replaced as well.
     through : (bool, bool), optional
         Whether the line's start / end is where the axis must end too (a junction the line runs
         through): the axis's points beyond it are compared with it as well. By default only axis
@@ -119,6 +124,8 @@ def medial_zones(nodes, line, radius, rscale, *, through=(False, False), fit_rad
         judged = (arc >= margin + skip_start) & (ax.length - arc >= margin)
         sharp = np.interp(np.linspace(0.0, 1.0, n), ax.s, (judged & (kr >= tol.GC_MAX_BEND)).astype(np.float64)) > 0
         bad |= sharp
+    if sharp_s is not None and len(sharp_s):
+        bad[np.clip(np.rint(np.asarray(sharp_s, np.float64) * (n - 1)).astype(np.int64), 0, n - 1)] = True
     bad &= inner
     if not bad.any():
         return nodes, np.zeros((0, 2))

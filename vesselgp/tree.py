@@ -47,7 +47,7 @@ from .branches import decomposed, root_end
 from .bulges import tree_bulges
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
-from .fit import (check_cylinder_bend, cylinder_from_axis,
+from .fit import (check_cylinder_bend, cylinder_from_axis, cylinder_sharp_bends,
                   FitProblem, fit_generalized_cylinder, fixed_points)
 from .inside import check_axis_inside
 from .medial_zones import medial_zones
@@ -481,28 +481,37 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     br = decomposed(V, Fg, ends, root, loops=topo.boundary_loops)
     caps, leaf_tip, problems, ids = _branch_problems(V, area, ends, root, br)
     # the branches' fixed points in lock step (one vectorised pass per iteration over all of them)
-    fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit")
+    fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit",
+                        singular="stop")
     raw, medial = [], []
     for b, (idx, it, p) in enumerate(zip(ids, fits, problems)):
         if it.converged or it.step <= tol.TREE_UNSETTLED * p.rscale:
             nodes, zones = medial_zones(it.nodes, br.lines[b], br.line_radius[b], p.rscale)
-        else:  # a fixed point still wandering is no fit (a stub on its junction's flare): the centre line
-            log.info("tree branch %d: its fit still moves %.2g radii per iteration; its axis is the lumen's "
-                     "centre line", b, it.step / p.rscale)
+        else:  # a fixed point still wandering (a stub on its junction's flare), or one whose system is
+            # singular (a stub with too few vertices around some of its nodes), is no fit: the centre line
+            log.info("tree branch %d: its fit %s; its axis is the lumen's centre line", b,
+                     "is singular (too few vertices around it)" if it.singular else
+                     f"still moves {it.step / p.rscale:.2g} radii per iteration")
             nodes = resample_arclength(br.lines[b], len(it.nodes))
             zones = np.array([[0.0, chord_length(br.lines[b])[-1]]])
+            if it.radii is None:  # singular from the first iteration: the inscribed radius along the line
+                a = chord_length(br.lines[b])
+                it = replace(it, radii=np.interp(np.linspace(0.0, a[-1], len(it.nodes)), a, br.line_radius[b]))
         raw.append(_RawBranch(idx=idx, nodes=nodes, s=it.s, it=it, rscale=p.rscale))
         medial.append(br.lines[b][np.searchsorted(chord_length(br.lines[b]), zones)])  # (z, 2, 3) ends
     junctions, junction_branch, nodes, zone = _junctions(raw, br.parent, br.junctions, br.junction_radius, br.lead_in)
+    lines = [_through_junctions(b, br, junctions, junction_branch) for b in range(len(raw))]
     for b, r in enumerate(raw):  # again through the junction zones, the axes now joined there; the turns
         # are judged here only, past the child's junction zone (a first fit's free end crosses it)
-        line, R = _through_junctions(b, br, junctions, junction_branch)
+        line, R = lines[b]
         fit_radius = np.interp(np.linspace(0.0, 1.0, len(nodes[b])), np.linspace(0.0, 1.0, len(r.it.radii)),
                                r.it.radii)  # the first fit's radii (the junctions moved the ends only)
         nodes[b], zones = medial_zones(nodes[b], line, R, r.rscale, through=(True, True), fit_radius=fit_radius,
                                        skip_start=zone[b])
         medial[b] = np.concatenate([medial[b], line[np.searchsorted(chord_length(line), zones)]])
     branches, axes = _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu)
+    if _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial):
+        branches, axes = _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu)
     paths, path_branches = _paths(V, area, caps, branches, axes, raw, br, root, lam, mu)
     winding = pm.winding  # one closed surface for every path
     for p in paths:
@@ -514,6 +523,29 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
                       path_branches=tuple(path_branches), vertex_branch=br.vertex_branch,
                       junction_zone=zone, medial_zones=medial, bulges=tree_bulges(paths))
+
+
+def _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial):
+    """Where a branch's final cylinder still turns tighter than its final radius, its axis becomes the
+    centre line there too (``nodes`` and ``medial`` updated in place); whether any did.
+
+    The first fit's turns are judged on its own radii (:func:`medial_zones`); the final cylinder's
+    Eq. 4 radii, on the axis joined at its junctions, can be larger (a sac's, a bulb's), and there
+    the tube model does not hold either (issue #34: a remeshed intracranial aneurysm's sac branch
+    turned at kappa r 1.01-1.22 with no medial zone). The bend check still judges the result."""
+    changed = False
+    for b, (gc, a) in enumerate(zip(branches, axes)):
+        sharp = cylinder_sharp_bends(gc, skip_start=zone[b], skip=_zone_s(a, medial[b]))
+        if not len(sharp):
+            continue
+        line, R = lines[b]
+        nodes[b], zones = medial_zones(nodes[b], line, R, raw[b].rscale, through=(True, True), skip_start=zone[b],
+                                       sharp_s=sharp)
+        medial[b] = np.concatenate([medial[b], line[np.searchsorted(chord_length(line), zones)]])
+        log.info("tree branch %d: its axis turns tighter than its fitted radius at s = %.3g-%.3g; the centre "
+                 "line there", b, sharp.min(), sharp.max())
+        changed = True
+    return changed
 
 
 def _through_junctions(b, br, junctions, junction_branch):
