@@ -947,6 +947,24 @@ MUTATIONS = {
         '            out.append(replace(it, converged=False, step=0.0, axis=axes[b], singular=True))',
         ["tests/test_fit.py::test_a_singular_problem_stops_alone_in_a_tree_and_raises_alone"],
     ),
+    "sac_rule_off": (
+        "vesselgp/mesh/ends.py",
+        '    keep = [t for t in tips if t["radius"] <= tol.ENDS_SAC_RATIO * widest]',
+        '    keep = list(tips)',
+        ["tests/test_sacs.py"],
+    ),
+    "sac_ratio_loosened": (
+        "vesselgp/mesh/ends.py",
+        '    keep = [t for t in tips if t["radius"] <= tol.ENDS_SAC_RATIO * widest]',
+        '    keep = [t for t in tips if t["radius"] <= 1.1 * tol.ENDS_SAC_RATIO * widest]',
+        ["tests/test_sacs.py::test_a_dome_wider_than_every_cut_end_is_a_sac_at_its_edge"],
+    ),
+    "sac_not_reported": (
+        "vesselgp/bulges.py",
+        '    for c, out, rs in sacs:',
+        '    for c, out, rs in ():',
+        ["tests/test_sacs.py::test_a_side_wall_sac_is_passed_by_not_taken_for_an_end"],
+    ),
 }
 
 

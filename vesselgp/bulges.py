@@ -46,7 +46,8 @@ class Bulge:
     peak : (3,) float64
         The axis point there.
     peak_radius : float
-        The fitted radius there (Eq. 4).
+        The fitted radius there (Eq. 4); for a blind sac beside the path (a dome that is not an end,
+        :attr:`vesselgp.PreparedMesh.sacs`), the dome's radius.
     neighbour_radius : float
         The lumen's radius beside it (the module notes).
     """
@@ -125,7 +126,33 @@ def bulges(s, radius, length, *, reach, margin=(0.0, 0.0)):
     return np.array(out, np.float64).reshape(-1, 5)
 
 
-def tree_bulges(paths):
+def _sac_place(paths, c, out, rs):
+    """(path, dense sample) where a sac's axis, from its dome's centre ``c`` inwards (against the unit
+    ``out``), passes closest to the first path it comes within ``rs`` of; the sample nearest to ``c``
+    when it comes within ``rs`` of none."""
+    best = None
+    for k, p in enumerate(paths):
+        X = p.dense_points - c
+        t = np.maximum(X @ -out, 0.0)
+        perp = np.linalg.norm(X + np.outer(t, out), axis=1)
+        near = np.flatnonzero(perp <= rs)
+        if len(near):
+            i = int(near[np.argmin(perp[near])])
+            if best is None or t[i] < best[0]:
+                best = (t[i], k, i)
+    if best is not None:
+        return best[1], best[2]
+    return min(((k, int(np.argmin(np.linalg.norm(p.dense_points - c, axis=1)))) for k, p in enumerate(paths)),
+               key=lambda ki: np.linalg.norm(paths[ki[0]].dense_points[ki[1]] - c))
+
+
+def _stretch_within(path, s_range, c, reach):
+    """Whether the path's dense samples within ``s_range`` come closer than ``reach`` to ``c``."""
+    m = (path.dense_s >= s_range[0]) & (path.dense_s <= s_range[1])
+    return bool(m.any() and np.min(np.linalg.norm(path.dense_points[m] - c, axis=1)) <= reach)
+
+
+def tree_bulges(paths, sacs=()):
     """The bulges of a tree's paths, one per place (a bulge on a shared trunk is on several paths).
 
     Parameters
@@ -133,6 +160,14 @@ def tree_bulges(paths):
     paths : sequence of GeneralizedCylinder
         The root-to-tip paths (or a single vessel's fit); the first and last fitted radius of
         each are not judged.
+    sacs : sequence of ((3,) float64, (3,) float64, float), optional
+        Blind sacs found by :func:`vesselgp.vessel_ends` (:attr:`vesselgp.PreparedMesh.sacs`:
+        domes that are not ends), as their dome's centre, outward direction and radius. A sac's
+        place on the paths is where its axis, followed inwards from the dome, passes within its
+        radius of a path (the neck; else the path point nearest to the dome). Where no path's
+        bulge already reaches within the sac's diameter of that place (a path through the neck),
+        the sac is a bulge of that path there: ``peak_radius`` the dome's radius,
+        ``neighbour_radius`` the path's fitted radius there, ``s_range`` the sac's diameter about it.
 
     Returns
     -------
@@ -151,4 +186,13 @@ def tree_bulges(paths):
                 found.append(Bulge((k,), np.array([s0, s1]), float(sp), peak, float(rp), float(rb)))
             else:
                 found[same] = replace(found[same], paths=found[same].paths + (k,))
+    for c, out, rs in sacs:
+        k, i = _sac_place(paths, c, out, rs)
+        p = paths[k]
+        if any(_stretch_within(paths[b.paths[0]], b.s_range, p.dense_points[i], 2.0 * rs) for b in found):
+            continue  # a path passes through its neck: its own bulge there reports it
+        sp = float(p.dense_s[i])
+        half = rs / p.length
+        found.append(Bulge((k,), np.array([max(sp - half, 0.0), min(sp + half, 1.0)]), sp, p.dense_points[i],
+                           float(rs), float(p.radius_at([sp])[0])))
     return tuple(found)

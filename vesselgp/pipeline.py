@@ -383,14 +383,13 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="ra
         The fit and the contents of ``axis.json`` (``tree.json`` for a tree).
     """
     V, F, uinfo = read_mesh_in(mesh, units, scale)
-    found = vessel_ends(V, F) if ends is None else None  # found once: the fit or the tree takes them
-    if found is not None and len(found) > 2:
-        return run_fit_tree(V, F, mesh, out, found, uinfo, axis_format=axis_format, render=render)
+    pm = PreparedMesh(V, F)  # checked once: the ends, the fit, the centre lines' inscribed radius
+    if ends is None and len(pm.ends) > 2:
+        return run_fit_tree(pm, mesh, out, uinfo, axis_format=axis_format, render=render)
     t0 = time.perf_counter()
-    pm = PreparedMesh(V, F, found)  # checked once: the fit, the centre lines' inscribed radius
     gc = fit_generalized_cylinder(pm, ends=ends, n_nodes=n_nodes)
     dt = time.perf_counter() - t0
-    d = {**gc_to_dict(gc), **uinfo, "bulges": bulges_to_dicts(tree_bulges((gc,)))}
+    d = {**gc_to_dict(gc), **uinfo, "bulges": bulges_to_dicts(tree_bulges((gc,), pm.sacs))}
     d.update(bbox_diagonal=float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), input=str(mesh), time_s=dt)
     write_json(out("axis.json"), d)
     fr = gc.frames
@@ -492,19 +491,16 @@ def tree_to_dict(tree, units="mm"):
     }
 
 
-def run_fit_tree(V, F, mesh, out, ends, uinfo, *, axis_format="both", render=True):
+def run_fit_tree(pm, mesh, out, uinfo, *, axis_format="both", render=True):
     """Fit a branching mesh as a vessel tree and write ``tree.*`` and the branch-coloured mesh into ``out``.
 
     Parameters
     ----------
-    V : (n, 3) float64
-        Vertices in millimetres.
-    F : (m, 3) int64
+    pm : PreparedMesh
+        The mesh in millimetres, checked, with its ends (and blind sacs) found.
     mesh : str or os.PathLike
         The input file (named in the report and the picture).
     out : OutputFolder
-    ends : sequence of VesselEnd
-        The mesh's ends (:func:`vesselgp.vessel_ends`).
     uinfo : dict
         Units of the input (:func:`read_mesh_in`).
     axis_format : {"vtp", "ply", "both"}
@@ -520,7 +516,7 @@ def run_fit_tree(V, F, mesh, out, ends, uinfo, *, axis_format="both", render=Tru
         and ``ParentId``; ``mesh_branches.ply`` has each vertex's ``branch``.
     """
     t0 = time.perf_counter()
-    pm = PreparedMesh(V, F, ends)  # checked once: the tree fit, the centre lines' inscribed radius
+    V, F = pm.V, pm.F
     tree = fit_vessel_tree(pm)
     dt = time.perf_counter() - t0
     d = {**tree_to_dict(tree), **uinfo, "bbox_diagonal": float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))),

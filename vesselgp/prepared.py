@@ -76,6 +76,7 @@ class PreparedMesh:
         self.V, self.F = V, F
         self.checked = checked_mesh(V, F, topo)
         self._given_ends = None if ends is None else _valid_ends(ends)
+        self._sacs = []
 
     @property
     def topology(self):
@@ -87,7 +88,15 @@ class PreparedMesh:
         """tuple of VesselEnd: the given ends, or :func:`vesselgp.vessel_ends` of the mesh (found once)."""
         if self._given_ends is not None:
             return self._given_ends
-        return tuple(found_ends(self.V, self.F, self.topology))
+        return tuple(found_ends(self.V, self.F, self.topology, sacs=self._sacs))
+
+    @property
+    def sacs(self):
+        """tuple of ((3,) float64, (3,) float64, float): the blind sacs :func:`vesselgp.vessel_ends` left out
+        of the ends (a rounded dome wider than every open or capped end), as its dome's centre, outward
+        direction and radius; empty when the ends were given."""
+        _ = self.ends
+        return tuple(self._sacs)
 
     @cached_property
     def areas(self):

@@ -462,6 +462,9 @@ ENDS_TIP_DOME_FROM = 0.25
 ENDS_TIP_DOME_TO = 0.85
 #: Rounded tips: a maximum closer than this many radii to a tip's centre is on that tip.
 ENDS_TIP_SEPARATION = 1.5
+#: A rounded dome wider than this many times the widest open or capped end of its mesh is a blind
+#: sac, not a vessel end (vesselgp.mesh.ends._without_sacs).
+ENDS_SAC_RATIO = 1.1
 
 # --- report.html (vesselgp.html_report) ------------------------------------------
 #: Opacity of the shaded mesh in the 3D view (below 1: the axis and the end labels show through).

@@ -476,7 +476,7 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                           vertex_branch=np.zeros(len(V), np.int64), junction_zone=np.zeros(1),
-                          medial_zones=(np.zeros((0, 2)),), bulges=tree_bulges((gc,)))
+                          medial_zones=(np.zeros((0, 2)),), bulges=tree_bulges((gc,), pm.sacs))
     area = pm.areas
     br = decomposed(V, Fg, ends, root, loops=topo.boundary_loops)
     caps, leaf_tip, problems, ids = _branch_problems(V, area, ends, root, br)
@@ -522,7 +522,7 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     return VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
                       path_branches=tuple(path_branches), vertex_branch=br.vertex_branch,
-                      junction_zone=zone, medial_zones=medial, bulges=tree_bulges(paths))
+                      junction_zone=zone, medial_zones=medial, bulges=tree_bulges(paths, pm.sacs))
 
 
 def _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial):

@@ -163,10 +163,12 @@ def vessel_ends(V, F=None, *, topology=None):
     return found_ends(V, F, topo)
 
 
-def found_ends(V, F, topo):
+def found_ends(V, F, topo, sacs=None):
     """:func:`vessel_ends` of a mesh already validated and oriented (``topo`` of ``F``), not checked again.
 
-    For :class:`vesselgp.PreparedMesh`, which validates its arrays and orients its faces once.
+    For :class:`vesselgp.PreparedMesh`, which validates its arrays and orients its faces once. The
+    blind sacs found on the way (domes that are not ends, :func:`_without_sacs`) are appended to the
+    list ``sacs`` when one is given, each as ``(center (3,), outward direction (3,), radius)``.
     """
     N, A = _face_normals(V, F)
     w = topo.edge_lengths(V)
@@ -179,7 +181,7 @@ def found_ends(V, F, topo):
     ends = _open_ends(V, topo, scale, body)
     for fids, loop, center, n in find_caps(V, F, topo, N, A, graph):
         ends.append(_make_end(body, "cap", loop, np.unique(F[fids]), center, n, scale, faces=fids))
-    ends += _rounded_ends(V, topo, (N, A), ends, graph, h, scale, body)
+    ends += _rounded_ends(V, topo, (N, A), ends, graph, h, scale, body, [] if sacs is None else sacs)
     ends.sort(key=cmp_to_key(_compare_ends))
     log.info("found %d vessel ends: %s", len(ends), end_listing(ends))
     return tuple(ends)
@@ -349,7 +351,34 @@ def _compare_ends(a, b):
     return int(ka > kb) - int(ka < kb)
 
 
-def _rounded_ends(V, topo, normals, ends, graph, h, scale, nearby):
+def _without_sacs(tips, ends, sacs):
+    """The rounded tips that are vessel ends: not a dome wider than every open or capped end.
+
+    On a mesh whose vessels were cut open (or capped flat) at their ends, a closed rounded dome
+    wider than ``tolerances.ENDS_SAC_RATIO`` times the widest of those ends is a blind sac (an
+    aneurysm on a side wall or at a bifurcation, whose dome and neck can pass the hemisphere
+    test), not a vessel's end (issue #34: "a blind sac is not an end"); it is logged and left
+    to the fit, whose path passes it, and appended to ``sacs`` as ``(center, direction, radius)``. A closed mesh's domes (no cut end to compare with) and a
+    mesh left with fewer than two ends keep them all. A vessel closed at a root wider than every
+    cut end (an aortic or pulmonary root closed at its valve, its branches cut open) is taken for
+    a sac by this rule: pass its ends explicitly (``ends=``) there.
+    """
+    if not ends or not tips:
+        return tips
+    widest = max(e.radius for e in ends)
+    keep = [t for t in tips if t["radius"] <= tol.ENDS_SAC_RATIO * widest]
+    if len(ends) + len(keep) < 2:
+        return tips
+    for t in tips:
+        if t["radius"] > tol.ENDS_SAC_RATIO * widest:
+            log.info("a rounded dome of radius %.4g at %s is wider than every open or capped end (the widest "
+                     "%.4g): a blind sac, not a vessel end", t["radius"], np.round(t["center"], 3).tolist(), widest)
+            sacs.append((np.asarray(t["center"], np.float64), np.asarray(t["direction"], np.float64),
+                         float(t["radius"])))
+    return keep
+
+
+def _rounded_ends(V, topo, normals, ends, graph, h, scale, nearby, sacs):
     """Rounded tips (see :func:`._ends_tips.find_tips`) as :class:`VesselEnd` s.
 
     Raises :class:`NotTubularError` when there are fewer than two ends in all,
@@ -377,7 +406,7 @@ def _rounded_ends(V, topo, normals, ends, graph, h, scale, nearby):
             "mesh is not tubular: no two ends found (most edges have zero length); run vesselgp.clean_mesh"
         )
     sources = np.unique(np.concatenate([e.vertices for e in ends])) if ends else np.zeros(0, np.int64)
-    tips = find_tips(V, topo.F, *normals, graph(), topo.edges, h, sources, used)
+    tips = _without_sacs(find_tips(V, topo.F, *normals, graph(), topo.edges, h, sources, used), ends, sacs)
     if len(ends) + len(tips) < 2:
         more = [t["region"] for t in tips]
         src = np.unique(np.concatenate([sources, *more])) if more else sources
