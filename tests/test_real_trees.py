@@ -365,3 +365,18 @@ def test_a_stub_too_coarse_to_fit_takes_its_centre_line(caplog):
         arc = chord_length(p.dense_points)
         inner = (arc > tree.ends[p.ends[0]].radius) & (arc[-1] - arc > tree.ends[p.ends[1]].radius)
         assert np.mean(np.abs(igl.fast_winding_number(Vc, Fc, p.dense_points[inner])) >= 0.5) >= 0.99
+
+
+def test_twist_between_refuses_a_tree_whose_main_vessel_no_single_fit_follows():
+    """The XCAT coronary tree: the twist's main axis is the single fit between the main ends, which cannot
+    follow any of its main vessels past their wide side branches (it leaves the lumen at s = 0.61 of the
+    LAD). The refusal says so, names the scan and the keyword that chooses another main vessel, and does not
+    send the user after an undetected end (the single fit's own advice)."""
+    from vesselgp.errors import NotTubularError
+
+    V, F = vesselgp.read_mesh(REAL / "xrayangio_xcat-coronary-tree_open.stl")[:2]
+    with pytest.raises(NotTubularError) as info:
+        vesselgp.twist_between(V, F, V + 1.0, F)
+    msg = str(info.value)
+    assert msg.startswith("scan A: the main vessel between ends 0 and 1 is not one tube")
+    assert "leaves the surface" in msg and msg.endswith("ends_a=") and "vessel_ends" not in msg

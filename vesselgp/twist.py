@@ -45,7 +45,7 @@ import numpy as np
 
 from . import tolerances as tol
 from ._validate import mesh_arguments
-from .errors import EndsError
+from .errors import EndsError, NotTubularError
 from .mesh._ends_format import end_listing
 from .rotations import wrap_angle
 from .fit import fit_generalized_cylinder
@@ -233,7 +233,12 @@ def scan_landmarks(V, F=None, ends=None):
     tree = fit_vessel_tree(pm, root=i)
     k = next(q for q, p in enumerate(tree.paths) if p.ends[1] == j)
     on_main = set(tree.path_branches[k])
-    main = fit_generalized_cylinder(pm, ends=(i, j))
+    try:
+        main = fit_generalized_cylinder(pm, ends=(i, j))
+    except NotTubularError as exc:  # not a fallback: the refusal, told as the twist's
+        raise NotTubularError(f"the main vessel between ends {i} and {j} is not one tube its single fit can follow "
+                              f"(the twist's main axis, vesselgp.twist notes): {str(exc).split(';')[0]}; choose "
+                              "another main vessel with ends=") from None
     rows = []
     for b in tree.path_branches[k][:-1]:
         J = tree.junctions[int(np.flatnonzero(tree.junction_branch == b)[0])]
@@ -296,7 +301,7 @@ def _scan_landmarks(scan, V, F, ends):
     (``ends_a``, ``ends_b``) that chooses its main vessel."""
     try:
         return scan_landmarks(V, F, ends)
-    except EndsError as exc:
+    except (EndsError, NotTubularError) as exc:
         raise type(exc)(f"scan {scan.upper()}: " + str(exc).replace("ends=", f"ends_{scan}=")) from None
 
 
