@@ -531,8 +531,9 @@ def _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial)
 
     The first fit's turns are judged on its own radii (:func:`medial_zones`); the final cylinder's
     Eq. 4 radii, on the axis joined at its junctions, can be larger (a sac's, a bulb's), and there
-    the tube model does not hold either (issue #34: a remeshed intracranial aneurysm's sac branch
-    turned at kappa r 1.01-1.22 with no medial zone). The bend check still judges the result."""
+    the tube model does not hold either (issue #34: the pulmonary artery remeshed at 1.4 edges turned
+    at kappa r 1.02, and a remeshed intracranial aneurysm's sac at 1.01-1.22, with no medial zone).
+    The bend check still judges the result."""
     changed = False
     for b, (gc, a) in enumerate(zip(branches, axes)):
         sharp = cylinder_sharp_bends(gc, skip_start=zone[b], skip=_zone_s(a, medial[b]))

@@ -358,10 +358,11 @@ def _without_sacs(tips, ends, sacs):
     wider than ``tolerances.ENDS_SAC_RATIO`` times the widest of those ends is a blind sac (an
     aneurysm on a side wall or at a bifurcation, whose dome and neck can pass the hemisphere
     test), not a vessel's end (issue #34: "a blind sac is not an end"); it is logged and left
-    to the fit, whose path passes it, and appended to ``sacs`` as ``(center, direction, radius)``. A closed mesh's domes (no cut end to compare with) and a
-    mesh left with fewer than two ends keep them all. A vessel closed at a root wider than every
-    cut end (an aortic or pulmonary root closed at its valve, its branches cut open) is taken for
-    a sac by this rule: pass its ends explicitly (``ends=``) there.
+    to the fit, whose path passes it, and appended to ``sacs`` as ``(center, direction, radius)``.
+    A closed mesh's domes (no cut end to compare with) and a mesh left with fewer than two ends
+    keep them all. A vessel closed at a root wider than every cut end (an aortic or pulmonary
+    root closed at its valve, its branches cut open) is taken for a sac by this rule; the log
+    names it, and cutting the root open (or capping it flat) makes it an end.
     """
     if not ends or not tips:
         return tips
