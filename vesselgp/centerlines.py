@@ -19,8 +19,8 @@ meshing of blood vessels from MR and CT angiography"):
    sac through its widest part and never leaves the surface.
    *1b.* On a tube only a few edges around, the tetrahedra across it can have their
    circumcentres outside its wall and the inside Voronoi vertices fall apart. When an end is not
-   connected to the root through them, the diagram is built again with those tetrahedra whose
-   centroid is inside as bridges (node at the centroid, radius its distance to the nearest
+   connected to the root through them, the tetrahedra of the same tessellation whose centroid
+   is inside join as bridges (node at the centroid, radius its distance to the nearest
    corner: a costly step, taken only where nothing else connects). Only meshes that would
    otherwise be refused take this step, so the others' lines do not depend on how qhull splits
    co-spherical points into tetrahedra (centroids do, circumcentres do not).
@@ -95,12 +95,12 @@ def _circumspheres(P, T):
     return a + x, R
 
 
-def _voronoi_graph(V, F, loops, bridged=False):
-    """Inside Voronoi vertices (points, radii) and the csr graph of their ``ds / R`` edges.
+def _inside_voronoi(V, F, loops):
+    """The Delaunay tetrahedra of the surface's vertices and their circumspheres inside it.
 
-    With ``bridged``, a tetrahedron whose circumcentre lies outside the surface but whose centroid
-    is inside joins the diagram too, its node at the centroid and its radius the distance from
-    there to its nearest corner (step 1b of the module notes)."""
+    Returns the tessellated points ``P``, the ``scipy.spatial.Delaunay`` ``tri``, the circumcentres
+    ``cc`` and radii ``R`` (one per tetrahedron), which of them lie ``inside`` the surface, and the
+    surface closed by fans ``(Vc, Fc)`` (for :func:`_bridged`)."""
     sub = spread_subset(len(V), tol.MEDIAL_MAX_POINTS)
     P = V[sub]
     try:
@@ -114,15 +114,27 @@ def _voronoi_graph(V, F, loops, bridged=False):
     w = np.zeros(len(cc))
     w[ok] = igl.fast_winding_number(Vc, Fc, cc[ok])
     inside = ok & (np.abs(w) > 0.5)  # either orientation of a closed surface
-    if bridged:
-        out = np.flatnonzero(~inside)
-        T = tri.simplices[out]
-        cen = P[T].mean(axis=1)
-        bridge = np.abs(igl.fast_winding_number(Vc, Fc, cen)) > 0.5
-        out, cen = out[bridge], cen[bridge]
-        cc[out] = cen
-        R[out] = np.min(np.linalg.norm(P[T[bridge]] - cen[:, None], axis=2), axis=1)
-        inside[out] = True
+    return P, tri, cc, R, inside, (Vc, Fc)
+
+
+def _bridged(P, tri, cc, R, inside, closed):
+    """``(cc, R, inside)`` with every tetrahedron whose circumcentre lies outside the surface but whose
+    centroid is inside joined too, its node at the centroid and its radius the distance from there to
+    its nearest corner (step 1b of the module notes); new arrays, the given ones unchanged."""
+    out = np.flatnonzero(~inside)
+    T = tri.simplices[out]
+    cen = P[T].mean(axis=1)
+    bridge = np.abs(igl.fast_winding_number(*closed, cen)) > 0.5
+    out, cen = out[bridge], cen[bridge]
+    cc, R, inside = cc.copy(), R.copy(), inside.copy()
+    cc[out] = cen
+    R[out] = np.min(np.linalg.norm(P[T[bridge]] - cen[:, None], axis=2), axis=1)
+    inside[out] = True
+    return cc, R, inside
+
+
+def _edge_graph(tri, cc, R, inside):
+    """The csr graph of the ``ds / R`` edges between inside nodes of face-adjacent tetrahedra."""
     nb = tri.neighbors
     i = np.repeat(np.arange(len(nb)), 4)
     j = nb.ravel()
@@ -136,9 +148,17 @@ def _voronoi_graph(V, F, loops, bridged=False):
     cost = np.linalg.norm(cc[i] - cc[j], axis=1) / (0.5 * (R[i] + R[j]))
     # zero-length edges (co-spherical tetrahedra share a circumcentre) still connect
     cost = np.maximum(cost, tol.MEDIAL_MIN_EDGE_COST)
-    G = coo_matrix((np.concatenate([cost, cost]), (np.concatenate([i, j]), np.concatenate([j, i]))),
-                   shape=(len(cc), len(cc))).tocsr()
-    return cc, R, inside, G
+    return coo_matrix((np.concatenate([cost, cost]), (np.concatenate([i, j]), np.concatenate([j, i]))),
+                      shape=(len(cc), len(cc))).tocsr()
+
+
+def _voronoi_graph(V, F, loops, bridged=False):
+    """Inside Voronoi vertices (points, radii, inside flags) and the csr graph of their ``ds / R`` edges;
+    with ``bridged``, the tetrahedra of :func:`_bridged` joined too."""
+    P, tri, cc, R, inside, closed = _inside_voronoi(V, F, loops)
+    if bridged:
+        cc, R, inside = _bridged(P, tri, cc, R, inside, closed)
+    return cc, R, inside, _edge_graph(tri, cc, R, inside)
 
 
 def _smoothed(P, R):
@@ -200,8 +220,11 @@ def centerlines(V, F, ends, root, *, loops=None):
     """
     if loops is None:
         loops = igl.boundary_loop_all(F)
+    P, tri, cc, R, inside, closed = _inside_voronoi(V, F, loops)  # tessellated once
     for bridged in (False, True):
-        cc, R, inside, G = _voronoi_graph(V, F, loops, bridged=bridged)
+        if bridged:
+            cc, R, inside = _bridged(P, tri, cc, R, inside, closed)
+        G = _edge_graph(tri, cc, R, inside)
         ids = np.flatnonzero(inside)
         kd = cKDTree(cc[ids])
         seeds = [int(ids[kd.query(e.center)[1]]) for e in ends]  # each end's nearest inside Voronoi vertex

@@ -727,9 +727,9 @@ def _iterate(stack, its, windows, lam, mu, stop_singular=False):
     circle = circle_fit_sums(s, local, w, stack.K, stack.rscale, stack.rowoff, stack.total)
     radius = _radius_sums(s, np.hypot(local[:, 1], local[:, 2]), w, stack.K, stack.rowoff, stack.total)
     out = []
+    how = "none" if stop_singular else "raise"
     for b, (it, p, r) in enumerate(zip(its, probs, stack.slices)):
         K, o = len(it.nodes), int(stack.nodeoff[b])
-        how = "none" if stop_singular else "raise"
         corr = circle_fit_solve(axes[b].node_frames(), it.nodes, circle[0][o:o + K - 1], circle[1][o:o + K - 1],
                                 lam, p.rscale, p.pin, p.mirror, singular=how)
         radii = None if corr is None else _radius_solve(radius[0][o:o + K], radius[1][o:o + K - 1],
