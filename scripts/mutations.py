@@ -25,6 +25,42 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    "tree_junction_cut_by_half_space": (
+        "vesselgp/tree.py",
+        "    return nodes[arc > line.arc] if at_start else nodes[arc[-1] - arc > line.arc]",
+        "    return nodes[(nodes - line.point) @ line.tangent < 0]",
+        ["tests/test_checks.py"],
+    ),
+    "check_end_gap_ignored": (
+        "vesselgp/checks.py",
+        "    bad = np.argwhere(gaps > tol.CHECK_END_GAP)",
+        "    bad = np.argwhere(gaps > 10 * tol.CHECK_END_GAP)",
+        ["tests/test_checks.py"],
+    ),
+    "check_cover_tolerance_loosened": (
+        "vesselgp/checks.py",
+        "    bad = (np.abs(D - R) > tol.CHECK_COVER_TOLERANCE * R) & ~exempt",
+        "    bad = (np.abs(D - R) > 1.1 * tol.CHECK_COVER_TOLERANCE * R) & ~exempt",
+        ["tests/test_checks.py"],
+    ),
+    "check_zone_reach_unbounded": (
+        "vesselgp/checks.py",
+        "    bad &= ~(zone & (D <= tol.CHECK_ZONE_REACH * zone_radius)) & (area > 0)",
+        "    bad &= ~zone & (area > 0)",
+        ["tests/test_checks.py"],
+    ),
+    "check_uncovered_limit_loosened": (
+        "vesselgp/checks.py",
+        "    if not uncovered or uncovered[0].size <= tol.CHECK_MAX_UNCOVERED:",
+        "    if not uncovered or uncovered[0].size <= 1.1 * tol.CHECK_MAX_UNCOVERED:",
+        ["tests/test_checks.py"],
+    ),
+    "check_bulge_radius_not_used": (
+        "vesselgp/checks.py",
+        "        zone_radius[m] = np.maximum(zone_radius[m], bl.peak_radius)",
+        "        pass",
+        ["tests/test_checks.py", "tests/test_real_trees.py", "tests/test_sacs.py"],
+    ),
     "bend_curvature_per_unit_s": (
         "vesselgp/inside.py",
         "kappa = np.linalg.norm(np.gradient(np.asarray(tangents, np.float64), arc, axis=0), axis=1)",
@@ -33,8 +69,8 @@ MUTATIONS = {
     ),
     "fit_bend_unchecked": (
         "vesselgp/fit.py",
-        "    check_cylinder_bend(gc, pm.winding.scale)\n    return gc",
-        "    return gc",
+        "    check_cylinder_bend(gc, pm.winding.scale)\n    return replace(",
+        "    return replace(",
         ["tests/test_fit.py"],
     ),
     "tree_branch_bend_unchecked": (

@@ -474,10 +474,10 @@ def test_junction_is_where_the_branch_lines_meet_held_within_the_zone(off):
     of its inscribed radius R0 from it the junction is the origin (to the anchor's weak pull), at 0.55 R0
     and 2 R0 it is held on the sphere of half that radius about J0 (tolerances.TREE_JUNCTION_HOLD),
     towards the origin."""
-    from vesselgp.tree import _junction_point
+    from vesselgp.tree import _EndLine, _junction_point
 
     dirs = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0.6, 0.8]])
-    lines = [(3.0 * d, d, d) for d in dirs]
+    lines = [_EndLine(3.0 * d, d, d, 0.5) for d in dirs]
     J0 = off * np.array([0.0, 0.0, 1.0])
     J = _junction_point(lines[0], lines[1:], J0, 1.0)
     if off < 0.5:

@@ -191,7 +191,7 @@ def cmd_fit(args):
                              shade=args.shade, units=args.units, scale=args.scale, render=not args.no_png)
     if "paths" in d:  # a branching mesh, fitted as a tree
         summary = {"command": "fit", "tree": True, **{k: d[k] for k in ("n_ends", "root", "converged", "time_s",
-                                                                        *_UNIT_KEYS)},
+                                                                        "checks", *_UNIT_KEYS)},
                    "n_branches": len(d["branches"]), "n_junctions": len(d["junctions"]),
                    "paths": [{k: p[k] for k in ("ends", "length", "mean_radius")} for p in d["paths"]],
                    "bulges": d["bulges"], "files": out.files}
@@ -199,15 +199,31 @@ def cmd_fit(args):
                           f"mean radius {p['mean_radius']:.4g} mm" for p in d["paths"])
         lines += _bulges_text(d["bulges"], paths=True)
         _emit(args, summary, f"fitted tree: {len(d['branches'])} branches, {len(d['junctions'])} junctions, "
-                             f"root end {d['root']}, {d['time_s']:.2f} s\n{lines}\n{_files_text(out)}")
+                             f"root end {d['root']}, {d['time_s']:.2f} s\n{lines}\n{_checks_text(d['checks'])}\n"
+                             f"{_files_text(out)}")
         return 0
     summary = {"command": "fit", **{k: d[k] for k in ("length", "mean_radius", "n_nodes", "iterations",
-                                                      "converged", "time_s", "bulges", *_UNIT_KEYS)},
+                                                      "converged", "time_s", "bulges", "checks", *_UNIT_KEYS)},
                "files": out.files}
     _emit(args, summary, f"fitted axis: length {gc.length:.4g} mm, mean radius {gc.mean_radius:.4g} mm, "
                          f"{len(gc.s)} nodes, {gc.iterations} iterations, {d['time_s']:.2f} s"
-                         f"{_bulges_text(d['bulges'])}\n{_files_text(out)}")
+                         f"{_bulges_text(d['bulges'])}\n{_checks_text(d['checks'])}\n{_files_text(out)}")
     return 0
+
+
+def _checks_text(c):
+    """One line on the fit's checks against its mesh (:class:`vesselgp.checks.FitChecks`, as a dict).
+
+    Examples
+    --------
+    >>> print(_checks_text({"worst_end_gap_radii": 0.0, "covered_fraction": 0.99961,
+    ...                     "largest_uncovered_radii": 0.21, "uncovered_limit_radii": 1.5}))
+    checks: every end reached (worst gap 0.00 end radii), 99.96 % of the wall covered (largest uncovered piece 0.21 radii of wall, at most 1.5)
+    """
+    cover = ("coverage not judged (a path between two of the mesh's ends)" if c["covered_fraction"] is None else
+             f"{100 * c['covered_fraction']:.2f} % of the wall covered (largest uncovered piece "
+             f"{c['largest_uncovered_radii']:.2f} radii of wall, at most {c['uncovered_limit_radii']:g})")
+    return f"checks: every end reached (worst gap {c['worst_end_gap_radii']:.2f} end radii), {cover}"
 
 
 def cmd_torsion(args):

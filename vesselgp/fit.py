@@ -49,6 +49,7 @@ from . import tolerances as tol
 from ._arrays import thinned
 from ._interop import polylines_to_pyvista
 from ._validate import as_vector
+from .checks import cylinder_checks
 from .axis import (Axis, AxisStack, circle_fit_solve, circle_fit_sums, hat, interp_frames,
                    banded_spd_or_none, local_coords, solve_banded_spd)
 from .curves import _chords, _resample_arclength, chord_length, resample_arclength
@@ -107,6 +108,9 @@ class GeneralizedCylinder:
         ``tolerances.GC_CONVERGENCE`` radii before ``max_iter`` iterations.
     lam, mu : float
         The regularisation weights of Eq. 2 and Eq. 4 the fit used.
+    checks : FitChecks or None
+        The fit checked against its mesh (:func:`vesselgp.checks.cylinder_checks`: its gaps to its
+        ends, the wall it covers); None for a tree's branches and paths (the tree has them).
     """
 
     s: np.ndarray
@@ -127,6 +131,7 @@ class GeneralizedCylinder:
     converged: bool
     lam: float
     mu: float
+    checks: object = field(default=None, repr=False)
 
     def at(self, s):
         """Axis point and frame at normalised arc lengths ``s``.
@@ -510,7 +515,7 @@ def fit_generalized_cylinder(
     gc = cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids)
     check_axis_inside(V, F, gc.s, gc.centers, gc.radii, winding=pm.winding)
     check_cylinder_bend(gc, pm.winding.scale)
-    return gc
+    return replace(gc, checks=cylinder_checks(gc, pm, e0, e1, whole=n_ends == 2 and min(end_ids) >= 0))
 
 
 def check_cylinder_bend(gc, scale, skip_start=0.0, skip=None):

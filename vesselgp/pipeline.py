@@ -302,6 +302,7 @@ def gc_to_dict(gc, units="mm"):
         "frames": {"T": gc.frames[:, 0], "U": gc.frames[:, 1], "V": gc.frames[:, 2]},
         "n_vertices": len(gc.vertex_s),
         "vertices_used": int(np.count_nonzero(gc.vertex_weight > 0)),
+        "checks": None if gc.checks is None else gc.checks.to_dict(),
     }
 
 
@@ -488,6 +489,7 @@ def tree_to_dict(tree, units="mm"):
         "bulges": bulges_to_dicts(tree.bulges),
         "converged": all(gc.converged for gc in tree.branches),
         "n_vertices": len(tree.vertex_branch),
+        "checks": tree.checks.to_dict(),
     }
 
 

@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -140,7 +140,8 @@ def _bezier(P0, d0, d1, length, rng):
 
 @dataclass(frozen=True, eq=False)
 class TreeBranch:
-    """One branch: a tube about a cubic Bezier centre line, radius linear in the parameter.
+    """One branch: a tube about a cubic Bezier centre line, radius linear in the parameter
+    (times Gaussian bulges, when it has any).
 
     Attributes
     ----------
@@ -165,6 +166,9 @@ class TreeBranch:
         Arc length of each sample from the branch start.
     length : float
         Arc length of the branch.
+    bulges : tuple of (t0, width, amplitude)
+        Gaussian factors ``1 + amplitude exp(-(t - t0)^2 / (2 width^2))`` multiplying the linear
+        radius (a sinus, an aneurysm, a stenosis with a negative amplitude); in the curve parameter.
     """
 
     control: np.ndarray
@@ -178,6 +182,7 @@ class TreeBranch:
     radii: np.ndarray
     s: np.ndarray
     length: float
+    bulges: tuple = ()
 
     @cached_property
     def _a(self):
@@ -200,7 +205,22 @@ class TreeBranch:
     def radius(self, t):
         """Radius at ``t`` (k,) -> (k,) float64."""
         t = np.asarray(t, dtype=np.float64)
-        return self.radius_start + (self.radius_end - self.radius_start) * t
+        return (self.radius_start + (self.radius_end - self.radius_start) * t) * self._bulge(t)[0]
+
+    def _bulge(self, t):
+        """The bulges' factor at ``t`` and its derivative in ``t``."""
+        g, dg = np.ones_like(t), np.zeros_like(t)
+        for t0, w, a in self.bulges:
+            e = a * np.exp(-0.5 * ((t - t0) / w) ** 2)
+            g, dg = g + e, dg - e * (t - t0) / (w * w)
+        return g, dg
+
+    def radius_slope(self, t):
+        """``dr / dt`` at ``t`` (k,) -> (k,) float64."""
+        t = np.asarray(t, dtype=np.float64)
+        g, dg = self._bulge(t)
+        lin = self.radius_start + (self.radius_end - self.radius_start) * t
+        return (self.radius_end - self.radius_start) * g + lin * dg
 
     def foot(self, X, t=None):
         """Nearest centre-line point of each query point (exact, Newton on the cubic).
@@ -258,8 +278,10 @@ class TreeBranch:
     def _seed_error(self):
         """Bound on ``|f(seed) - f|`` from the nearest dense sample: twice the largest seed gap
         plus a hundredth of the radius (the radius change across the candidate feet)."""
-        P = _eval(self._a, self._seeds[0])
-        return 2 * float(np.max(np.linalg.norm(np.diff(P, axis=0), axis=1))) + 0.01 * self.radius_start
+        ts = self._seeds[0]
+        P = _eval(self._a, ts)
+        return (2 * float(np.max(np.linalg.norm(np.diff(P, axis=0), axis=1))) + 0.01 * self.radius_start
+                + 2 * float(np.max(np.abs(self.radius_slope(ts)))) * (ts[1] - ts[0]))
 
     def field(self, X, gradient=False, t=None):
         """The branch's implicit function ``|X - B(t*)| - r(t*)`` (and its gradient).
@@ -293,8 +315,8 @@ class TreeBranch:
         # dt*/dx = B' / (|B'|^2 + (B - x) . B'') inside (0, 1), zero where t* is clamped
         den = np.einsum("ij,ij->i", d1, d1) + np.einsum("ij,ij->i", B - X, d2)
         inside = (t > 0) & (t < 1)
-        dt = np.where(inside[:, None], d1 / den[:, None], 0.0)
-        return f, n - (self.radius_end - self.radius_start) * dt, t
+        dt = np.divide(d1, den[:, None], out=np.zeros_like(d1), where=inside[:, None])
+        return f, n - self.radius_slope(t)[:, None] * dt, t
 
 
 @dataclass(frozen=True)
@@ -615,8 +637,9 @@ def _unit(v):
     return v / np.linalg.norm(v)
 
 
-def _branches(parents, ctrl, radii, level):
-    """The :class:`TreeBranch` records: exact samples uniform in arc length."""
+def _branches(parents, ctrl, radii, level, bulges=None):
+    """The :class:`TreeBranch` records: exact samples uniform in arc length (``bulges``: a dict of each
+    bulging branch's (t0, width, amplitude) tuples)."""
     out = []
     for b, par in enumerate(parents):
         a = _coefficients(ctrl[b])
@@ -625,23 +648,23 @@ def _branches(parents, ctrl, radii, level):
         t = np.interp(s, sq, tq)
         t[0], t[-1] = 0.0, 1.0
         r0, r1 = float(radii[b, 0]), float(radii[b, 1])
-        out.append(TreeBranch(
-            control=ctrl[b].copy(), radius_start=r0, radius_end=r1, parent=int(par),
-            junction=ctrl[b, 0].copy(), level=int(level[b]), t=t, centers=_eval(a, t),
-            radii=r0 + (r1 - r0) * t, s=s, length=float(sq[-1]),
-        ))
+        br = TreeBranch(control=ctrl[b].copy(), radius_start=r0, radius_end=r1, parent=int(par),
+                        junction=ctrl[b, 0].copy(), level=int(level[b]), t=t, centers=_eval(a, t),
+                        radii=r0 + (r1 - r0) * t, s=s, length=float(sq[-1]),
+                        bulges=tuple(tuple(map(float, q)) for q in (bulges or {}).get(b, ())))
+        out.append(replace(br, radii=br.radius(t)) if br.bulges else br)
     return tuple(out)
 
 
 def _ends_and_paths(branches, children):
     """The root's open end, one rounded end per leaf, and the root-to-tip paths."""
     root = branches[0]
-    ends = [TreeEnd("open", root.control[0].copy(), root.radius_start, -root.tangent([0.0])[0], 0)]
+    ends = [TreeEnd("open", root.control[0].copy(), float(root.radius([0.0])[0]), -root.tangent([0.0])[0], 0)]
     paths = []
     for b, br in enumerate(branches):
         if children[b]:
             continue
-        ends.append(TreeEnd("rounded", br.control[3].copy(), br.radius_end, br.tangent([1.0])[0], b))
+        ends.append(TreeEnd("rounded", br.control[3].copy(), float(br.radius([1.0])[0]), br.tangent([1.0])[0], b))
         chain = [b]
         while branches[chain[-1]].parent >= 0:
             chain.append(branches[chain[-1]].parent)
@@ -663,7 +686,7 @@ def _check_layout(branches, voxel, band, blend):
     band), stay above the root plane and keep apart by more than the blend width away
     from the junctions (so the surface there is the single tube's, exactly).
     """
-    rmin = min(b.radius_end for b in branches)
+    rmin = min(float(b.radii.min()) for b in branches)
     if rmin < tol.TREE_MIN_RADIUS_VOXELS * voxel:
         raise OptionError(f"the thinnest tube (radius {rmin:.3g}) is under {tol.TREE_MIN_RADIUS_VOXELS} voxels; "
                           f"use a voxel below {rmin / tol.TREE_MIN_RADIUS_VOXELS:.3g} or fewer levels")
@@ -1013,7 +1036,8 @@ def synthetic_tree(levels=2, *, parents=None, radius=3.0, taper=0.8, tube_taper=
                         target_vertices=target_vertices, staircase=staircase, seed=seed)
 
 
-def tree_surface(parents, control, radii, *, voxel, blend, target_vertices=None, staircase=False, seed=0):
+def tree_surface(parents, control, radii, *, voxel, blend, target_vertices=None, staircase=False, seed=0,
+                 bulges=None):
     """The tree surface of given Bezier branches (the meshing of :func:`synthetic_tree`).
 
     Parameters
@@ -1033,6 +1057,8 @@ def tree_surface(parents, control, radii, *, voxel, blend, target_vertices=None,
     staircase : bool
     seed : int
         Recorded in the result.
+    bulges : dict of int to sequence of (t0, width, amplitude), optional
+        Gaussian bulges of a branch's radius (:class:`TreeBranch`), by branch index.
 
     Returns
     -------
@@ -1043,7 +1069,7 @@ def tree_surface(parents, control, radii, *, voxel, blend, target_vertices=None,
     level = np.zeros(len(parents), np.int64)
     for b, par in enumerate(parents):
         level[b] = 0 if par < 0 else level[par] + 1
-    branches = _branches(parents, control, radii, level)
+    branches = _branches(parents, control, radii, level, bulges)
     ends, paths = _ends_and_paths(branches, children)
     truth = TreeTruth(branches=branches, ends=ends, paths=paths, blend=float(blend),
                       root_plane=np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0]]))

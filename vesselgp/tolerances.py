@@ -619,3 +619,24 @@ TREE_BULGE_EDGE = 1.1
 #: ... whose peak is at least this many times it (real sacs and iliac aneurysms 1.33-1.72, tubes,
 #: stenoses and thin noisy tips at most 1.26).
 TREE_BULGE_RATIO = 1.3
+
+# --- a fit checked against its mesh (vesselgp.checks) ---
+#: A path's first and last axis points lie within this many radii of the centres of its ends (VMTK's
+#: lines stop within about one radius of an open end); farther is a fault, raised.
+CHECK_END_GAP = 1.0
+#: A wall vertex is described by the fit when its distance to its branch's axis is within this
+#: fraction of the fitted radius there (an ellipse of 2.5:1 stays within 0.43 of its mean radius).
+CHECK_COVER_TOLERANCE = 0.5
+#: Not judged: the surface within this many of the parent's end radii of a junction (its flare and crotch) ...
+CHECK_JUNCTION_RADII = 2.0
+#: ... and a child's mouth, up to this many of its radii past its junction zone.
+CHECK_MOUTH_RADII = 2.0
+#: In a medial zone or a bulge the wall is the zone's out to this many radii (a bulge's peak radius)
+#: from the axis: a side sac's dome reaches r + 2 R_sac, a vessel with no axis as far as it is long.
+CHECK_ZONE_REACH = 2.0
+#: The largest uncovered piece of wall, in radii of tube wall (area / (2 pi r^2)): on the 11 real
+#: meshes 0.8 at most (four vertices of a 0.35 mm coronary's flare); a 4-tip tree with one end left
+#: out leaves 3.2-4.4.
+CHECK_MAX_UNCOVERED = 1.5
+#: Reports list at most this many uncovered pieces.
+CHECK_LIST_MAX = 10

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -45,6 +46,7 @@ from ._interop import polylines_to_pyvista
 from .axis import Axis
 from .branches import decomposed, root_end
 from .bulges import tree_bulges
+from .checks import FitChecks, fit_checks
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
 from .fit import (check_cylinder_bend, cylinder_from_axis, cylinder_sharp_bends,
@@ -106,6 +108,9 @@ class VesselTree:
         Where the lumen along the paths is wider than on both sides of it (a sac, a bulb, an
         ectasia): each with its paths, its stretch and peak, and its peak and neighbouring radius
         (:func:`vesselgp.bulges.tree_bulges`). The paths pass through it; none on a tube.
+    checks : FitChecks
+        The fit checked against its mesh (:func:`vesselgp.checks.fit_checks`): every path's gap to
+        its ends, the fraction of the wall it covers and the pieces it leaves uncovered.
     """
 
     ends: tuple
@@ -120,6 +125,7 @@ class VesselTree:
     junction_zone: np.ndarray
     medial_zones: tuple
     bulges: tuple
+    checks: FitChecks | None = None
 
     def path_to(self, end):
         """The path from the root to end index ``end``.
@@ -205,8 +211,18 @@ def _branch_problem(V, area, line, idx, caps, start, end):
 # ----------------------------------------------------------------------------- junctions
 
 
+class _EndLine(NamedTuple):
+    """The line continuing an axis beyond one end (:func:`_end_line`)."""
+
+    point: np.ndarray  # p0, where the axis is kept up to and the link to the junction starts
+    direction: np.ndarray  # unit, the chord's direction out of the end
+    tangent: np.ndarray  # unit, the axis's own direction at p0, out of the end
+    arc: float  # arc length of p0 from the end
+
+
 def _end_line(nodes, rscale, at_start):
-    """A point and unit direction continuing the axis beyond one end, and the axis's own direction there.
+    """A point and unit direction continuing the axis beyond one end, the axis's own direction there
+    and the point's arc length from the end (:class:`_EndLine`).
 
     The line through the axis between ``TREE_JUNCTION_SKIP`` and
     ``TREE_JUNCTION_SKIP + TREE_JUNCTION_CHORD`` radii from the end: the last
@@ -228,7 +244,19 @@ def _end_line(nodes, rscale, at_start):
     d = p0 - p1
     h = tol.TREE_LINK_TANGENT * rscale
     q0, q1 = (np.array([np.interp(a, arc, nodes[:, k]) for k in range(3)]) for a in (max(a0 - h, 0.0), a0 + h))
-    return p0, d / np.linalg.norm(d), (q0 - q1) / np.linalg.norm(q0 - q1)
+    return _EndLine(p0, d / np.linalg.norm(d), (q0 - q1) / np.linalg.norm(q0 - q1), float(a0))
+
+
+def _beyond(nodes, line, at_start):
+    """The nodes farther along the axis from the end than the line's point ``p0`` (by arc length).
+
+    Not the half-space behind ``p0``'s tangent plane: an axis that turns back through more
+    than a right angle (a carotid siphon before its branches, a branch looping after its
+    junction) has nodes on the far side of that plane, and those were dropped: the paths of a
+    siphon started 8.6 radii from their root end (issue #44).
+    """
+    arc = chord_length(nodes)
+    return nodes[arc > line.arc] if at_start else nodes[arc[-1] - arc > line.arc]
 
 
 def _junction_point(parent_line, child_lines, J0, R0):
@@ -243,7 +271,8 @@ def _junction_point(parent_line, child_lines, J0, R0):
     """
     A = tol.TREE_JUNCTION_ANCHOR * np.eye(3)
     b = tol.TREE_JUNCTION_ANCHOR * J0
-    for a, dc, _ in [parent_line] + list(child_lines):
+    for line in [parent_line] + list(child_lines):
+        a, dc = line.point, line.direction
         P = np.eye(3) - np.outer(dc, dc)
         A, b = A + P, b + P @ a
     J = np.linalg.solve(A, b)
@@ -267,9 +296,8 @@ def _attach(nodes, J, line, rscale, at_start):
     there, the line's third value) to ``J`` (heading straight at it), so the
     branch has no kink.
     """
-    p0, _, t_out = line
-    t = (nodes - p0) @ t_out
-    keep = nodes[t < 0]
+    p0, t_out = line.point, line.tangent
+    keep = _beyond(nodes, line, at_start)
     if len(keep) < 2:
         raise NotTubularError("a branch of the tree is shorter than its junction zone; "
                               "the mesh may have a side bulge detected as an end (see vesselgp.vessel_ends)")
@@ -294,8 +322,8 @@ def _led_in(nodes, J, lead, line, rscale):
     leaves a wide trunk at a steep angle (the arch's branches, the renals). Returns the nodes and
     the arc length of the led-in part (up to ``p0``): the junction zone, anatomy rather than a fit.
     """
-    p0, _, t_out = line
-    keep = nodes[(nodes - p0) @ t_out < 0]
+    p0, t_out = line.point, line.tangent
+    keep = _beyond(nodes, line, at_start=True)
     if len(keep) < 2:
         raise NotTubularError("a branch of the tree is shorter than its junction zone; "
                               "the mesh may have a side bulge detected as an end (see vesselgp.vessel_ends)")
@@ -476,7 +504,7 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                           vertex_branch=np.zeros(len(V), np.int64), junction_zone=np.zeros(1),
-                          medial_zones=(np.zeros((0, 2)),), bulges=tree_bulges((gc,), pm.sacs))
+                          medial_zones=(np.zeros((0, 2)),), bulges=tree_bulges((gc,), pm.sacs), checks=gc.checks)
     area = pm.areas
     br = decomposed(V, Fg, ends, root, loops=topo.boundary_loops)
     caps, leaf_tip, problems, ids = _branch_problems(V, area, ends, root, br)
@@ -519,10 +547,11 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     medial = tuple(_zone_s(a, m) for a, m in zip(axes, medial))
     for b, z, m in zip(branches, zone, medial):  # not the paths, a junction zone nor a medial zone:
         check_cylinder_bend(b, winding.scale, skip_start=z, skip=m)  # they turn there by design
-    return VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
+    tree = VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
                       path_branches=tuple(path_branches), vertex_branch=br.vertex_branch,
                       junction_zone=zone, medial_zones=medial, bulges=tree_bulges(paths, pm.sacs))
+    return replace(tree, checks=fit_checks(tree, pm))  # every end reached, the wall covered (or raise)
 
 
 def _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial):
