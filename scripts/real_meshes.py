@@ -5,7 +5,9 @@ samples inside the lumen (libigl's winding number of the surface closed by fans,
 0.2 local radii from the wall, the mean and worst distance from VMTK's centre lines (stored in
 ``vmtk/<mesh>.npz``, VMTK 1.5.2) to our paths in VMTK's inscribed radii, the branches whose axis is
 the centre line somewhere (``VesselTree.medial_zones``), the bulges (``VesselTree.bulges``: peak radius
-over the radius beside) and the fit's time.
+over the radius beside), the fit's checks against its mesh (``VesselTree.checks``, issue #44: the worst
+gap from a path's end to the centre of its end, in that end's radii; the wall's area the fit covers and
+its largest uncovered piece, in radii of tube wall) and the fit's time.
 
     python scripts/real_meshes.py [--data ../shared/data/real] [--vmtk /tmp/peer-vmtk/bin/python]
 
@@ -102,7 +104,7 @@ def _row(path, vmtk=None, variant=None):
     try:
         tree = vesselgp.fit_vessel_tree(V, F)
     except ValueError as e:
-        return [name, "-", "refused", "-", "-", "-", "-", f"{time.perf_counter() - t:.2f}", "-",
+        return [name, "-", "refused", "-", "-", "-", "-", "-", "-", f"{time.perf_counter() - t:.2f}", "-",
                 str(e).split(";")[0][:70]]
     dt = time.perf_counter() - t
     import pymeshlab  # the winding's orientation from pymeshlab, not from vesselgp's own mending
@@ -127,8 +129,10 @@ def _row(path, vmtk=None, variant=None):
     zoned = sum(1 for z in tree.medial_zones if len(z))
     bul = ", ".join(f"{b.ratio:.2f}x" for b in tree.bulges) or "-"
     tv = "-" if vmtk is None else f"{_vmtk_seconds(vmtk, V, F, tree.ends, tree.root):.2f}"
+    c = tree.checks
     return [name, str(len(tree.ends)), f"{len(tree.paths)} paths", f"{100 * inside / n:.1f} / {100 * clear / n:.1f}",
-            f"{d.mean():.3f} / {d.max():.2f}", f"{zoned} of {len(tree.branches)}", bul, f"{dt:.2f}", tv, ""]
+            f"{d.mean():.3f} / {d.max():.2f}", f"{zoned} of {len(tree.branches)}", bul, f"{c.worst_end_gap:.2f}",
+            f"{100 * c.covered_fraction:.2f} / {c.largest_uncovered:.2f}", f"{dt:.2f}", tv, ""]
 
 
 def main():
@@ -140,7 +144,8 @@ def main():
     args = ap.parse_args()
     files = sorted(p for p in Path(args.data).iterdir() if p.suffix in (".stl", ".vtp", ".ply", ".obj"))
     head = ["mesh", "ends", "fit", "inside / clear (%)", "VMTK line to path (r): mean / worst",
-            "branches with medial zones", "bulges (peak / beside)", "time (s)", "VMTK time (s)", "refusal"]
+            "branches with medial zones", "bulges (peak / beside)", "end gap (end r)",
+            "wall covered (%) / largest uncovered (r)", "time (s)", "VMTK time (s)", "refusal"]
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for f in files:

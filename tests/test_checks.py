@@ -102,10 +102,10 @@ def _window_tube(rho_out, height, width=np.pi / 2, n_around=64, n_rings=401, len
     return V, F, A, rho, np.ones(len(V))
 
 
-def _coverage(V, F, A, D, R, zone=None, zone_radius=None):
+def _coverage(V, F, A, D, R, zone=None, zone_radius=None, balls=None):
     no = np.zeros(len(V), bool)
     return wall_coverage(V, mesh_topology(F, len(V)).adjacency, A, D, R, no, no if zone is None else zone,
-                         R if zone_radius is None else zone_radius, np.zeros(len(V), np.int64))
+                         R if zone_radius is None else zone_radius, np.zeros(len(V), np.int64), balls)
 
 
 @pytest.mark.parametrize("factor", [0.97, 1.03])
@@ -155,6 +155,21 @@ def test_the_zone_reach_at_its_edge(reach, covered):
     assert (not pieces) == covered
     # counted in the zone's radius, not the fitted one: with a bulge's peak radius of 1.5 both are covered
     assert not _coverage(V, F, A, D, R, zone=zone, zone_radius=np.where(zone, 1.5, 1.0))[1]
+
+
+@pytest.mark.parametrize("factor, covered", [(1.03, True), (0.97, False)])
+def test_the_lumens_spheres_cover_the_wall_they_touch_at_their_edge(factor, covered):
+    """On a tree the lumen's maximal spheres cover the wall within 1 + CHECK_COVER_TOLERANCE of their radius
+    (a junction's flare). A unit tube's window pushed out to 1.6 (uncovered by the tube) and one sphere on the
+    axis at the window's middle, of radius 1.6 / 1.5 times 1.03 or 0.97 over the window's half-height and
+    reach: the window's farthest vertex lies at sqrt(1.6^2 + 0.25^2) from its centre."""
+    V, F, A, D, R = _window_tube(1.6, 0.5)
+    far = np.hypot(1.6, 0.25)  # the window's corners, 0.25 off its middle along the axis
+    balls = (np.array([[0.0, 0.0, 5.0]]), np.array([factor * far / (1.0 + tol.CHECK_COVER_TOLERANCE)]))
+    frac, pieces = _coverage(V, F, A, D, R, balls=balls)
+    assert (not pieces) == covered
+    if not covered:  # only the window's corners, beyond the sphere, are left
+        assert np.all(np.linalg.norm(np.array([p.point for p in pieces]) - [0, 0, 5.0], axis=1) > 0.97 * 1.6)
 
 
 @pytest.mark.parametrize("gap, refused", [(0.98, False), (1.02, True)])

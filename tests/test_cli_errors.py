@@ -8,6 +8,7 @@ can list the same mesh twice into one folder, replacing only its own listing.
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -71,6 +72,31 @@ def test_a_refusal_names_the_option(files, tmp_path, capsys, args, fragment):
     assert_error(rc, o, e, fragment)
     assert "=" not in e.split("error: ", 1)[1].split("(ends:")[0]  # no keyword=value left
     assert not out.exists()
+
+
+def test_refusals_name_commands_and_options_not_python(tmp_path, capsys):
+    """Issue #44, item 8: what a refusal tells a command-line user to do names commands and options: a raw voxel
+    staircase is sent to 'vesselgp clean --smooth N' (not vesselgp.clean_mesh), an axis that bends tighter than
+    its radius to --lam 1.0 (not lam=1.0; with it the fit goes through), a root that is no end to --root; no
+    'keyword=' is left in any of them."""
+    from test_ends_trees import bent_occupancy, voxel_faces
+
+    V, F = voxel_faces(bent_occupancy())
+    vg.write_mesh(tmp_path / "stair.ply", V, F)
+    helix = synthetic_vessel("helix", radius=lambda s: 1.0 + 0.2 * np.sin(2 * np.pi * s), ellipticity=0.7,
+                             ellipse_angle=0.4, n_around=14, seed=3)  # kinks with the default lam (test_fit)
+    vg.write_mesh(tmp_path / "helix.ply", helix.V, helix.F)
+    for args, fragment in [(["fit", tmp_path / "stair.ply"], "vesselgp clean --smooth N"),
+                           (["fit", tmp_path / "helix.ply"], "fit a stiffer axis, e.g. --lam 1.0"),
+                           (["fit", tmp_path / "helix.ply", "--root", 2], "--root 2 is not an end index; use 0 to 1 "
+                                                                          "(see vesselgp ends)")]:
+        rc, o, e = run([*map(str, args), "-o", tmp_path / "out", "--no-png"], capsys)
+        assert_error(rc, o, e, fragment)
+        msg = e.split("error: ", 1)[1]
+        assert not re.search(r"[A-Za-z_]=", msg) and "vesselgp." not in msg and "command line:" not in msg, msg
+    rc, o, e = run(["fit", str(tmp_path / "helix.ply"), "--lam", "1.0", "-o", str(tmp_path / "ok"), "--no-png"],
+                   capsys)
+    assert rc == 0, e
 
 
 def test_the_library_keeps_its_keywords(files):

@@ -104,6 +104,34 @@ def test_metres_without_units_warn_once_naming_the_option(vessel, tmp_path):
     assert "check --units" in err and "converted from m" in err
 
 
+@pytest.mark.parametrize("edge, factor", [("UNITS_MM_MIN_DIAG", 0.97), ("UNITS_MM_MIN_DIAG", 1.03),
+                                          ("UNITS_MM_MAX_DIAG", 0.97), ("UNITS_MM_MAX_DIAG", 1.03)])
+def test_given_units_are_checked_against_a_vessels_size_at_their_edges(tmp_path, caplog, edge, factor):
+    """Issue #44: after --units or --scale the mesh must span a vessel (its bounding-box diagonal within
+    UNITS_MM_MIN_DIAG-UNITS_MM_MAX_DIAG mm), else a warning names --units (a coronary in mm fitted with
+    --units cm spanned 724 mm, unwarned). A straight tube of radius 1 and length 10 (diagonal sqrt(108),
+    its rings reaching +-1 on both axes) scaled to 0.97 and 1.03 times each limit: only the ones outside warn."""
+    import logging
+
+    from vesselgp import tolerances as tol
+
+    t = np.linspace(0, 2 * np.pi, 25)[:-1]
+    z = np.linspace(0, 10, 11)
+    V = np.c_[np.tile(np.cos(t), 11), np.tile(np.sin(t), 11), np.repeat(z, 24)]
+    a = np.arange(24)
+    F = np.vstack([np.r_[np.c_[i * 24 + a, i * 24 + (a + 1) % 24, i * 24 + 24 + a],
+                         np.c_[i * 24 + (a + 1) % 24, i * 24 + 24 + (a + 1) % 24, i * 24 + 24 + a]] for i in range(10)])
+    write_mesh(tmp_path / "tube.ply", V, F)
+    limit = getattr(tol, edge)
+    scale = factor * limit / np.sqrt(108.0)
+    with caplog.at_level(logging.WARNING, logger="vesselgp"):
+        W = read_mesh_in(tmp_path / "tube.ply", scale=scale)[0]
+    assert np.linalg.norm(np.ptp(W, axis=0)) == pytest.approx(factor * limit, rel=1e-9)
+    outside = (factor < 1) == (edge == "UNITS_MM_MIN_DIAG")
+    warned = [r.getMessage() for r in caplog.records if "check --units" in r.getMessage()]
+    assert bool(warned) == outside and all("outside the" in w for w in warned)
+
+
 # --------------------------------------------------------------------------- #
 # torsion, clean, join
 # --------------------------------------------------------------------------- #

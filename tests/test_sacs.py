@@ -44,10 +44,11 @@ def _tee(rho, length=9.0, half=14.0):
 
 @pytest.mark.parametrize("ratio, is_end", [(1.05, True), (1.15, False)])
 def test_a_dome_wider_than_every_cut_end_is_a_sac_at_its_edge(ratio, is_end, caplog):
-    """A rounded end whose radius is ``ratio`` times the two open ends' (the side branch of a tee): an end
+    """A rounded end whose radius is ``ratio`` times the two open ends' (a short side stub of a tee, 3 long
+    from the tube's axis: its own tube is 0.87 of its radii, measured 1.2, below ENDS_SAC_TUBE_RADII): an end
     up to ENDS_SAC_RATIO (1.1) times the widest cut end, a blind sac beyond (logged, not an end). The
     hemisphere test measures the dome's radius 2.5 % above the construction's, well inside the +-5 %."""
-    V, F = _tee(ratio * R)
+    V, F = _tee(ratio * R, length=3.0)
     with caplog.at_level(logging.INFO, logger="vesselgp.mesh.ends"):
         ends = vesselgp.vessel_ends(V, F)
     open_ends = [e for e in ends if e.kind == "open"]
@@ -59,6 +60,64 @@ def test_a_dome_wider_than_every_cut_end_is_a_sac_at_its_edge(ratio, is_end, cap
     else:
         assert any("blind sac" in r.getMessage() for r in caplog.records)
     assert tol.ENDS_SAC_RATIO == pytest.approx(1.1)  # the edge these ratios straddle
+
+
+def _capsule_on_neck(rho, ell, neck=0.45, gap=1.0, half=12.0):
+    """A tube of radius R along x (open at x = +-half) and, on a neck of radius ``neck`` rho rising along y from
+    it, a closed capsule of radius ``rho``: two hemispheres about y0 = R + gap + rho and y1 = y0 + ``ell``."""
+    y0 = R + gap + rho
+    y1 = y0 + ell
+    x = np.arange(-half, half + H / 2, H)
+    y = np.arange(-R - 1.0, y1 + rho + 1.0, H)
+    z = np.arange(-rho - 1.0, rho + 1.0 + H / 2, H)
+    X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
+    capsule = np.sqrt(X**2 + (Y - np.clip(Y, y0, y1)) ** 2 + Z**2) - rho
+    stalk = np.maximum(np.hypot(X, Z) - neck * rho, np.maximum(Y - y0, -Y))  # from the tube axis up to the sphere
+    body = _smooth_union(np.hypot(Y, Z) - R, stalk, 0.3)
+    return _surface(_smooth_union(body, capsule, 0.3), (x, y, z))
+
+
+@pytest.mark.parametrize("factor", [0.95, 1.05])
+def test_a_wide_dome_on_a_tube_of_its_own_is_an_end_at_its_edge(factor, caplog):
+    """Issue #44: a dome wider than every cut end closes a vessel, not a sac, when it goes on as a tube of its
+    own for ENDS_SAC_TUBE_RADII (2) of its radii past its equator: its rings past the equator round and no
+    narrower than 1 - ENDS_SAC_TUBE_NARROWING (0.75) of its radius. A capsule of radius 1.2 R on a narrow neck:
+    its tube runs ``ell`` past the upper dome's equator, then its lower hemisphere narrows to 0.75 of its
+    radius ``rho arccos(0.75)`` further on (the truth: ell + 0.723 rho). At 0.95 and 1.05 times the limit
+    it is a sac (the mesh has its two cut ends) and a vessel end (a third, rounded, of the capsule's radius)."""
+    rho = 1.2 * R
+    ell = factor * tol.ENDS_SAC_TUBE_RADII * rho - rho * np.arccos(1.0 - tol.ENDS_SAC_TUBE_NARROWING)
+    V, F = _capsule_on_neck(rho, ell)
+    with caplog.at_level(logging.INFO, logger="vesselgp.mesh.ends"):
+        ends = vesselgp.vessel_ends(V, F)
+    rounded = [e for e in ends if e.kind == "rounded"]
+    assert len(ends) == 2 + (factor > 1) and len(rounded) == int(factor > 1)
+    said = " ".join(r.getMessage() for r in caplog.records)
+    if factor > 1:
+        assert abs(rounded[0].radius - rho) < 0.05 * rho and "closes a tube of its own" in said
+    else:
+        assert "blind sac" in said
+
+
+def test_a_vessel_ending_in_a_dome_wider_than_the_cut_ends_is_fitted_to_its_end():
+    """Issue #44: a Y whose wider daughter (radius 2.8 at its rounded tip) is wider than the trunk's open root
+    (2.4): it closes a long tube of its own, so it is an end, not a sac (it was taken for one, and the fit of
+    the two ends left, through the Y, came within 0.14 radii of the wall). The tree reaches all three ends."""
+    from vesselgp.synthetic_anatomy import bezier_between
+    from vesselgp.synthetic_tree import tree_surface
+
+    J = np.array([0.0, 0.0, 30.0])
+    control = [bezier_between([0, 0, 0], [0, 0, 1], J, [0, 0, 1], 10, 10),
+               bezier_between(J, [0.7, 0, 1], J + [16, 0, 22], [0.3, 0, 1], 8, 8),
+               bezier_between(J, [-0.7, 0, 1], J + [-16, 2, 20], [-0.4, 0, 1], 8, 8)]
+    t = tree_surface([-1, 0, 0], control, [[2.4, 2.4], [2.6, 2.8], [1.6, 1.5]], voxel=0.45, blend=0.5)
+    tree = vesselgp.fit_vessel_tree(t.V, t.F)
+    assert len(tree.ends) == 3 and not tree.bulges
+    for e in t.truth.ends:  # each true end found, of its kind and radius
+        f = min(tree.ends, key=lambda x: np.linalg.norm(x.center - e.center))
+        assert f.kind == e.kind and np.linalg.norm(f.center - e.center) < 0.2 * e.radius
+        assert abs(f.radius - e.radius) < 0.05 * e.radius
+    assert tree.checks.worst_end_gap < 0.05 and tree.checks.covered_fraction > 0.999
 
 
 def _side_sac(sac=2.5, bend=3.0, length=30.0):

@@ -1,7 +1,7 @@
 """Every output kind read back by VTK (PyPI ``vtk``) and PyVista, as ParaView, 3D Slicer and VMTK read them (issue #36).
 
 Centre lines carry VMTK's arrays and cells (vmtkbranchextractor's CenterlineIds, TractIds, GroupIds, Blanking
-over shared points); their inscribed radius is checked against VTK's own distance to the input surface
+each branch with its own points); their inscribed radius is checked against VTK's own distance to the input surface
 (vtkImplicitPolyDataDistance), their abscissas against the chords of the points, their curvature and torsion
 against a helix's closed forms. Shaded meshes are read as VTK point data.
 """
@@ -81,14 +81,17 @@ def test_a_tree_is_vmtks_branch_split_network(tree_vtp):
     for c in range(len(tree.paths)):  # each centre line: its tracts in order, joined end to start
         tracts = [C[i] for i in np.flatnonzero(cdata["CenterlineIds"] == c)]
         assert cdata["TractIds"][cdata["CenterlineIds"] == c].tolist() == list(range(len(tracts)))
-        assert all(a[-1] == b[0] for a, b in zip(tracts[:-1], tracts[1:]))  # a shared point at every split
+        for a, b in zip(tracts[:-1], tracts[1:]):  # every split: one point on it (within a branch) or two (a junction)
+            same = pdata["BranchId"][a[-1]] == pdata["BranchId"][b[0]]
+            assert (a[-1] == b[0]) if same else (a[-1] != b[0] and np.allclose(P[a[-1]], P[b[0]], atol=1e-9))
         ids = np.concatenate([tracts[0]] + [q[1:] for q in tracts[1:]])
         a = pdata["Abscissas"][ids]
         assert a[0] == 0 and np.allclose(np.diff(a), np.linalg.norm(np.diff(P[ids], axis=0), axis=1), rtol=1e-3)
         assert a[-1] == pytest.approx(tree.paths[c].length, rel=0.02)  # the path's own length, from the root
-    # the junction: the trunk's last point starts each child's first tract; one point per 0.1 radius about
-    J = C[0][-1]
-    assert [i for i, c in enumerate(C) if c[0] == J] == [1, 4] and np.linalg.norm(P[J] - tree.junctions[0]) < 1e-6
+    # the junction: the trunk's last point and each child's first lie on it; one point per 0.1 radius about
+    J = P[C[0][-1]]
+    assert [i for i, c in enumerate(C) if np.allclose(P[c[0]], J)] == [1, 4]
+    assert np.linalg.norm(J - tree.junctions[0]) < 1e-6
     step = np.linalg.norm(np.diff(P[C[0]], axis=0), axis=1) / pdata["MeanRadius"][C[0][1:]]
     assert np.all(np.abs(step - 0.1) < 0.02)
     # VMTK's inscribed radius is the distance to the surface, measured here by VTK
@@ -96,6 +99,41 @@ def test_a_tree_is_vmtks_branch_split_network(tree_vtp):
     assert np.allclose(pdata["MaximumInscribedSphereRadius"][::7], d, rtol=1e-6, atol=1e-9)
     # blanked tracts are the children's junction zones, one group each; the trunk's group is in both paths
     assert cdata["Blanking"].tolist() == [0, 1, 0, 0, 1, 0] and cdata["GroupIds"].tolist() == [0, 1, 2, 0, 3, 4]
+
+
+def test_parallel_transport_normals_are_across_each_cells_own_tangent(tree_vtp):
+    """Issue #44: at every point of every cell, junctions included, ParallelTransportNormals is a unit vector
+    across the cell's own tangent (its points' central differences, second-order one-sided at the cell's
+    ends), as VMTK's are: a child's first point is its own, with the child's frame (the junction point shared by the parent
+    and its children carried the parent's normal, up to 0.94 off perpendicular on a real arch)."""
+    _, tree, pd = tree_vtp
+    P = vtk_to_numpy(pd.GetPoints().GetData())
+    U = arrays(pd.GetPointData())["ParallelTransportNormals"]
+    worst = 0.0
+    for c in cells(pd):
+        T = np.gradient(P[c], axis=0, edge_order=2)
+        T /= np.linalg.norm(T, axis=1)[:, None]
+        assert np.allclose(np.linalg.norm(U[c], axis=1), 1.0, atol=1e-9)
+        worst = max(worst, float(np.abs(np.einsum("ij,ij->i", T, U[c])).max()))
+    assert worst < 0.02, worst  # the differences against the spline's tangent (0.011 measured)
+
+
+def test_a_capped_vessels_lines_start_where_the_inscribed_sphere_meets_the_cap(tmp_path):
+    """Issue #44: a capped tube's centre line starts and stops where the sphere of the fitted radius meets
+    each cap (VMTK's lines start where the inscribed sphere meets the end): the first and last points lie
+    one radius (1.5) inside the caps, and their MaximumInscribedSphereRadius, measured by VTK, is the
+    tube's radius, not 0 (the point on the cap itself, as written before). An open tube's line runs from the
+    centre of one loop to the other's (the sphere there reaches the rim: radius 1.5)."""
+    for ends in ("capped", "open"):
+        v = synthetic_vessel("arc", radius=1.5, ends=ends, n_around=32, remesh=False)
+        gc = fit_generalized_cylinder(v.V, v.F)
+        write_centerlines(tmp_path / f"{ends}.vtp", centerline_network(gc, v.V, v.F))
+        pd = read_vtp(tmp_path / f"{ends}.vtp")
+        P = vtk_to_numpy(pd.GetPoints().GetData())
+        r = arrays(pd.GetPointData())["MaximumInscribedSphereRadius"]
+        for k, c in ((0, v.truth.centers[0]), (-1, v.truth.centers[-1])):  # the true centres of the end planes
+            assert abs(np.linalg.norm(P[k] - c) - (1.5 if ends == "capped" else 0.0)) < 0.1
+            assert abs(r[k] - 1.5) < 0.05 and abs(vtk_distance(v.V, v.F, P[[k]])[0] - r[k]) < 1e-6
 
 
 def test_frenet_arrays_of_a_helix_are_its_closed_forms(tmp_path):

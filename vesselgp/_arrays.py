@@ -103,3 +103,22 @@ def spread_subset(n, most):
         return np.arange(n)
     k = np.arange(int(most))
     return np.unique(np.floor(np.mod(k * 0.6180339887498949, 1.0) * n).astype(np.int64))
+
+
+def within_balls(P, C, R):
+    """Whether each point of ``P`` (p, 3) lies inside one of the balls of centres ``C`` (c, 3) and radii ``R`` (c,):
+    the pairs closer than the largest radius, from two k-d trees. (p,) bool.
+
+    Examples
+    --------
+    >>> within_balls(np.array([[0.0, 0, 0], [3, 0, 0]]), np.array([[0.5, 0, 0], [5, 0, 0]]), np.array([1.0, 1.5]))
+    array([ True, False])
+    """
+    from scipy.spatial import cKDTree
+
+    out = np.zeros(len(P), bool)
+    if not len(P) or not len(C):
+        return out
+    near = cKDTree(C).sparse_distance_matrix(cKDTree(P), float(np.max(R)), output_type="ndarray")
+    out[near["j"][near["v"] < R[near["i"]]]] = True
+    return out

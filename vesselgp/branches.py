@@ -32,6 +32,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import tolerances as tol
+from ._arrays import within_balls
 from ._validate import as_mesh
 from .centerlines import centerlines
 from .curves import chord_length, resample_arclength
@@ -105,7 +106,7 @@ def root_end(ends, root=None):
     """
     root = int(np.argmax([e.radius for e in ends])) if root is None else int(root)
     if not 0 <= root < len(ends):
-        raise EndsError(f"root {root} is not an end index; use 0 to {len(ends) - 1} (see vesselgp.vessel_ends)")
+        raise EndsError(f"root={root} is not an end index; use 0 to {len(ends) - 1} (see vesselgp.vessel_ends)")
     return root
 
 
@@ -199,13 +200,9 @@ class _Topology:
 
 def _covered(P, others):
     """Whether each point of ``P`` lies inside an inscribed sphere, scaled by ``TREE_CHILD_CLEAR``, of
-    the lines ``others`` ((points, radii) pairs): the pairs closer than the largest sphere, from a k-d tree."""
-    Q = np.vstack([q for q, _ in others])
-    Rq = np.concatenate([r for _, r in others]) * tol.TREE_CHILD_CLEAR
-    near = cKDTree(Q).sparse_distance_matrix(cKDTree(P), float(Rq.max()), output_type="ndarray")
-    out = np.zeros(len(P), bool)
-    out[near["j"][near["v"] < Rq[near["i"]]]] = True
-    return out
+    the lines ``others`` ((points, radii) pairs)."""
+    return within_balls(P, np.vstack([q for q, _ in others]),
+                        np.concatenate([r for _, r in others]) * tol.TREE_CHILD_CLEAR)
 
 
 def _branch_line(topo, k, parent):

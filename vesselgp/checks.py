@@ -18,7 +18,8 @@ this module checks for, on every fit of a whole mesh (:func:`vesselgp.fit_vessel
   ``CHECK_JUNCTION_RADII`` of the parent's radius about each junction, a child's mouth up to
   ``CHECK_MOUTH_RADII`` of its radius past its junction zone, and, out to
   ``CHECK_ZONE_REACH`` radii of the axis (a bulge's peak radius in a bulge), the medial zones
-  and the reported bulges. The rest is uncovered: its pieces (connected on the mesh) are
+  and the reported bulges. On a tree, the lumen's maximal inscribed spheres along its centre lines cover
+  the wall they touch (within the same tolerance), as at a shallow junction's flare. The rest is uncovered: its pieces (connected on the mesh) are
   measured by their area over ``2 pi r^2``, the length in radii of a tube of the local radius
   with that much wall. A piece larger than ``CHECK_MAX_UNCOVERED`` is a vessel or an end with
   no axis, and the fit is refused with its place and size. The limit is measured: on the 11
@@ -36,6 +37,7 @@ import numpy as np
 from scipy.sparse.csgraph import connected_components
 
 from . import tolerances as tol
+from ._arrays import within_balls
 from .bulges import tree_bulges
 from .errors import NotTubularError
 from .mesh._ends_format import format_point
@@ -151,7 +153,7 @@ def check_end_gaps(paths, ends, gaps, scale):
         "radius): this is a fault of vesselgp, not of the mesh; please report it with the mesh")
 
 
-def wall_coverage(V, adjacency, area, D, R, exempt, zone, zone_radius, branch):
+def wall_coverage(V, adjacency, area, D, R, exempt, zone, zone_radius, branch, balls=None):
     """Which wall vertices the fit describes, and the pieces it does not (see the module notes).
 
     Parameters
@@ -173,6 +175,10 @@ def wall_coverage(V, adjacency, area, D, R, exempt, zone, zone_radius, branch):
         The radius the reach is counted in (a bulge's peak radius there, else ``R``).
     branch : (n,) int64
         Each vertex's branch (names a piece).
+    balls : ((k, 3) float64, (k,) float64), optional
+        The lumen's centre lines, as points and inscribed radii (:class:`vesselgp.centerlines.Centerlines`):
+        a wall vertex within ``1 + CHECK_COVER_TOLERANCE`` of the inscribed radius of one of their points
+        is covered too (the lumen's maximal spheres touch it: a junction's flare, a shallow crotch).
 
     Returns
     -------
@@ -203,6 +209,9 @@ def wall_coverage(V, adjacency, area, D, R, exempt, zone, zone_radius, branch):
     """
     bad = (np.abs(D - R) > tol.CHECK_COVER_TOLERANCE * R) & ~exempt
     bad &= ~(zone & (D <= tol.CHECK_ZONE_REACH * zone_radius)) & (area > 0)
+    if balls is not None and bad.any():
+        ids = np.flatnonzero(bad)
+        bad[ids[within_balls(V[ids], balls[0], (1.0 + tol.CHECK_COVER_TOLERANCE) * balls[1])]] = False
     total = float(area.sum())
     fraction = 1.0 - float(area[bad].sum()) / total if total > 0 else 1.0
     ids = np.flatnonzero(bad)
@@ -232,8 +241,8 @@ def check_coverage(uncovered, scale):
         f"the fit leaves {u.area:.3g} square units of wall without an axis at {format_point(u.point, scale)} "
         f"(as much wall as {u.size:.1f} radii of a tube of radius {u.radius:.3g}; at most "
         f"{tol.CHECK_MAX_UNCOVERED:g} is left to noise): likely a vessel whose end was not found there; "
-        "list the ends with vesselgp ends (vesselgp.vessel_ends) and, if its end is a closed dome or a cap "
-        "that is not listed, cut the vessel open there")
+        "list the ends (vesselgp.vessel_ends) and, if its end is a closed dome or a cap that is not listed, "
+        "cut the vessel open there")
 
 
 def _wall_of_branches(V, branches, vertex_branch):
@@ -267,7 +276,7 @@ def _zones(V, tree, R):
     return exempt, zone, zone_radius
 
 
-def fit_checks(tree, pm):
+def fit_checks(tree, pm, balls=None):
     """Check a fitted tree (or a single vessel's fit as a one-branch tree) against its mesh.
 
     Parameters
@@ -277,6 +286,8 @@ def fit_checks(tree, pm):
         zones and bulges (a single vessel: one branch, one path, no junction).
     pm : PreparedMesh
         Its mesh (vertices, adjacency, Voronoi areas, end regions).
+    balls : ((k, 3) float64, (k,) float64), optional
+        The lumen's centre lines as points and inscribed radii (a tree's, :func:`wall_coverage`).
 
     Returns
     -------
@@ -298,7 +309,7 @@ def fit_checks(tree, pm):
         if tree.ends[i].kind != "open":  # a cap or a dome closes the tube: not its wall
             area[np.asarray(tree.ends[i].vertices, np.int64)] = 0.0
     fraction, pieces = wall_coverage(V, pm.topology.adjacency, area, D, R, exempt, zone, zone_radius,
-                                     tree.vertex_branch)
+                                     tree.vertex_branch, balls)
     check_coverage(pieces, scale)
     return FitChecks(gaps, fraction, pieces)
 

@@ -187,28 +187,59 @@ def _output(args, inputs, **kwargs):
 
 def cmd_fit(args):
     out = _output(args, [args.mesh])
-    gc, d = pipeline.run_fit(args.mesh, out, ends=args.ends, n_nodes=args.nodes, axis_format=args.axis_format,
-                             shade=args.shade, units=args.units, scale=args.scale, render=not args.no_png)
+    gc, d = pipeline.run_fit(args.mesh, out, ends=args.ends, root=args.root, n_nodes=args.nodes, lam=args.lam,
+                             axis_format=args.axis_format, shade=args.shade, units=args.units, scale=args.scale,
+                             render=not args.no_png)
     if "paths" in d:  # a branching mesh, fitted as a tree
-        summary = {"command": "fit", "tree": True, **{k: d[k] for k in ("n_ends", "root", "converged", "time_s",
-                                                                        "checks", *_UNIT_KEYS)},
+        summary = {"command": "fit", "tree": True, **{k: d[k] for k in ("n_ends", "root", "root_chosen", "converged",
+                                                                        "time_s", "checks", *_UNIT_KEYS)},
                    "n_branches": len(d["branches"]), "n_junctions": len(d["junctions"]),
                    "paths": [{k: p[k] for k in ("ends", "length", "mean_radius")} for p in d["paths"]],
                    "bulges": d["bulges"], "files": out.files}
         lines = "\n".join(f"  path {p['ends'][0]} -> {p['ends'][1]}: length {p['length']:.4g} mm, "
                           f"mean radius {p['mean_radius']:.4g} mm" for p in d["paths"])
         lines += _bulges_text(d["bulges"], paths=True)
+        summary["branch_fits"] = [{k: b[k] for k in ("id", "fit", "iterations", "last_step")} for b in d["branches"]]
+        root = (f"root end {d['root']} (--root)" if d["root_chosen"] == "given" else
+                f"root end {d['root']} (the widest; --root I starts the paths at another)")
         _emit(args, summary, f"fitted tree: {len(d['branches'])} branches, {len(d['junctions'])} junctions, "
-                             f"root end {d['root']}, {d['time_s']:.2f} s\n{lines}\n{_checks_text(d['checks'])}\n"
-                             f"{_files_text(out)}")
+                             f"{root}, {d['time_s']:.2f} s\n{lines}\n{_branch_fits_text(d['branches'])}\n"
+                             f"{_checks_text(d['checks'])}\n{_files_text(out)}")
         return 0
     summary = {"command": "fit", **{k: d[k] for k in ("length", "mean_radius", "n_nodes", "iterations",
                                                       "converged", "time_s", "bulges", "checks", *_UNIT_KEYS)},
                "files": out.files}
+    stopped = "" if gc.converged else f" (stopped there, still moving {gc.last_step:.2g} mm per iteration)"
     _emit(args, summary, f"fitted axis: length {gc.length:.4g} mm, mean radius {gc.mean_radius:.4g} mm, "
-                         f"{len(gc.s)} nodes, {gc.iterations} iterations, {d['time_s']:.2f} s"
+                         f"{len(gc.s)} nodes, {gc.iterations} iterations{stopped}, {d['time_s']:.2f} s"
                          f"{_bulges_text(d['bulges'])}\n{_checks_text(d['checks'])}\n{_files_text(out)}")
     return 0
+
+
+def _branch_fits_text(branches):
+    """One line on how the branches' axes were found (``fit`` of each branch of ``tree.json``).
+
+    Examples
+    --------
+    >>> print(_branch_fits_text([{"id": 0, "fit": "converged", "iterations": 9, "last_step": 1e-5},
+    ...                          {"id": 1, "fit": "stopped", "iterations": 30, "last_step": 0.0049},
+    ...                          {"id": 2, "fit": "centre line", "iterations": 30, "last_step": 0.19}]))
+    branch fits: 1 converged, 1 stopped at 30 iterations (still moving up to 0.0049 mm per iteration: branch 1), 1 the lumen's centre line (branch 2); every axis passed the checks
+    """
+    def ids(kind):
+        return [b for b in branches if b["fit"] == kind]
+
+    parts = [f"{len(ids('converged'))} converged"]
+    if ids("stopped"):
+        st = ids("stopped")
+        parts.append(f"{len(st)} stopped at {max(b['iterations'] for b in st)} iterations (still moving up to "
+                     f"{max(b['last_step'] for b in st):.2g} mm per iteration: branch{'es' * (len(st) > 1)} "
+                     f"{', '.join(str(b['id']) for b in st)})")
+    if ids("centre line"):
+        cl = ids("centre line")
+        parts.append(f"{len(cl)} the lumen's centre line (branch{'es' * (len(cl) > 1)} "
+                     f"{', '.join(str(b['id']) for b in cl)})")
+    return f"branch fits: {', '.join(parts)}; every axis passed the checks"
 
 
 def _checks_text(c):
@@ -446,7 +477,12 @@ def _add_fit(sub, fmt):
     p.add_argument("--ends", type=int, nargs=2, metavar=("I", "J"),
                    help="indices of the two ends to fit between (for meshes with more than two ends; "
                         "'vesselgp ends' lists them)")
+    p.add_argument("--root", type=int, metavar="I",
+                   help="the end the paths start from (default: the widest end, which is not always the trunk: "
+                        "a carotid whose daughter is wider than the common carotid); 'vesselgp ends' lists them")
     p.add_argument("--nodes", type=int, help="number of axis nodes (default: one per half radius)")
+    p.add_argument("--lam", type=float,
+                   help=f"weight of the axis's bending (paper Eq. 2; default {tol.GC_LAMBDA:g}): larger is stiffer")
     p.add_argument("--axis-format", choices=("vtp", "ply", "both"), default="both",
                    help="polyline file(s) of the axis (default: both)")
     p.add_argument("--shade", choices=("radius", "theta", "none"), default="radius",
@@ -669,7 +705,7 @@ def _one_line(msg):
 #: ``name=value``, ``name=(i, j)``, ``name=`` or, when it holds an underscore, by its name; under the
 #: command they name the option instead (:func:`_cli_message`).
 OPTION_OF_KEYWORD = {
-    "fit": {"ends": "--ends", "n_nodes": "--nodes"},
+    "fit": {"ends": "--ends", "n_nodes": "--nodes", "root": "--root", "lam": "--lam"},
     "torsion": {"ends": "--ends"},
     "join": {"end": "--end", "other_end": "--other-end", "hold": "--hold", "max_stretch": "--max-stretch",
              "place": "--place",
@@ -677,6 +713,15 @@ OPTION_OF_KEYWORD = {
     "twist": {"ends_a": "--ends-a", "ends_b": "--ends-b"},
     "batch": {"workers": "--workers"},
 }
+
+#: The library's functions that a command does, as the library's messages name them (most specific first):
+#: under any command they name the command instead (:func:`_cli_message`).
+COMMAND_OF_FUNCTION = (
+    (r"vesselgp\.clean_mesh\(V, F, smooth=N\)", "vesselgp clean --smooth N"),
+    (r"vesselgp\.clean_mesh", "vesselgp clean"),
+    (r"vesselgp\.vessel_ends", "vesselgp ends"),
+    (r"vesselgp\.fit_generalized_cylinder", "vesselgp fit --ends I J"),
+)
 
 
 def _cli_message(command, message):
@@ -688,11 +733,17 @@ def _cli_message(command, message):
     'mesh has 3 open ends; pass --ends I J to choose (ends: ...); --ends 0 7 is invalid'
     >>> _cli_message("join", "stretched 1.40x (max_stretch 1.3); hold less (hold=) or raise max_stretch; end=2 is not")
     'stretched 1.40x (--max-stretch 1.3); hold less (--hold) or raise --max-stretch; --end 2 is not'
+    >>> _cli_message("fit", "smooth it with vesselgp.clean_mesh(V, F, smooth=N) (command line: vesselgp clean "
+    ...              "--smooth N); the ends (see vesselgp.vessel_ends); a stiffer axis, lam=1.0; root=3 is not an end")
+    'smooth it with vesselgp clean --smooth N; the ends (see vesselgp ends); a stiffer axis, --lam 1.0; --root 3 is not an end'
     """
     def pair(flag):
         return lambda m: " ".join([flag, *(x.strip().upper() if x.strip() in ("i", "j") else x.strip()
                                            for x in m.group(1).split(","))])
 
+    message = re.sub(r"\s*\(command line: [^()]*\)", "", message)  # the library's own hint at the command line
+    for pattern, cli in COMMAND_OF_FUNCTION:
+        message = re.sub(pattern, cli, message)
     for kw, flag in OPTION_OF_KEYWORD.get(command, {}).items():
         k = re.escape(kw)
         message = re.sub(rf"\b{k}=\(([^()]*)\)", pair(flag), message)  # ends=(i, j) -> --ends I J

@@ -106,6 +106,10 @@ class GeneralizedCylinder:
     converged : bool
         Whether the axis step (or the next one predicted, see :func:`fixed_point`) fell below
         ``tolerances.GC_CONVERGENCE`` radii before ``max_iter`` iterations.
+    last_step : float
+        The axis's last step (its largest node move) in mesh units: below the tolerance when
+        ``converged``; how far the axis still moved per iteration when the fit stopped at
+        ``max_iter``; infinite for a fit whose system was singular.
     lam, mu : float
         The regularisation weights of Eq. 2 and Eq. 4 the fit used.
     checks : FitChecks or None
@@ -131,6 +135,7 @@ class GeneralizedCylinder:
     converged: bool
     lam: float
     mu: float
+    last_step: float = float("nan")
     checks: object = field(default=None, repr=False)
 
     def at(self, s):
@@ -513,9 +518,22 @@ def fit_generalized_cylinder(
     axis = Axis(it.nodes, initial_normal)
     s_raw = axis.project(V, it.s if sub.step == 1 else _spread_to_neighbours(topo.adjacency, sub, it.s), None)
     gc = cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids)
-    check_axis_inside(V, F, gc.s, gc.centers, gc.radii, winding=pm.winding)
+    return _checked(gc, pm, e0, e1, whole=n_ends == 2 and min(end_ids) >= 0, rscale=rscale)
+
+
+def _checked(gc, pm, e0, e1, whole, rscale):
+    """``gc`` checked against its mesh (inside the lumen, no turn tighter than its radius, its ends reached
+    and, when it covers the whole mesh, its wall covered: :func:`vesselgp.checks.cylinder_checks`), with its
+    checks; a fit stopped at the iteration cap is said so once (WARNING), with what the checks found."""
+    check_axis_inside(pm.V, pm.F, gc.s, gc.centers, gc.radii, winding=pm.winding)
     check_cylinder_bend(gc, pm.winding.scale)
-    return replace(gc, checks=cylinder_checks(gc, pm, e0, e1, whole=n_ends == 2 and min(end_ids) >= 0))
+    gc = replace(gc, checks=cylinder_checks(gc, pm, e0, e1, whole=whole))
+    if not gc.converged:
+        log.warning("the generalized-cylinder fit stopped at %d iterations, its axis still moving %.3g radii per "
+                    "iteration (the tolerance is %.3g); its axis passed the checks against the mesh (inside the "
+                    "lumen, every end reached%s)", gc.iterations, gc.last_step / rscale, tol.GC_CONVERGENCE,
+                    "" if gc.checks.covered_fraction is None else ", the wall covered")
+    return gc
 
 
 def check_cylinder_bend(gc, scale, skip_start=0.0, skip=None):
@@ -636,7 +654,9 @@ def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit"
         Eq. 2 and Eq. 4 weights.
     max_iter : int
     what : str
-        Names the fit in the non-convergence warning.
+        Names the fit in the debug log of the problems that stop unconverged (the callers say what
+        that means for their result: :func:`fit_generalized_cylinder` warns once, a tree reports it
+        per branch).
     singular : {"raise", "stop"}
         A problem whose system is singular (a stretch with no wall around it) raises
         :class:`NotTubularError`, or (``"stop"``, a tree's branches) stops there with
@@ -648,7 +668,7 @@ def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit"
         The last state of each problem; ``converged`` says whether the axis step, or once the
         outlier set is fixed the next step predicted from the last two (``step^2 / previous``,
         the iteration then contracting geometrically), fell below ``tolerances.GC_CONVERGENCE``
-        radii (a warning is logged otherwise).
+        radii.
     """
     states = [_Iteration(p.nodes, p.s0, None, 0, False) for p in problems]
     windows = [4.0 / (len(p.nodes) - 1) + 2.0 * p.rscale / p.length0 for p in problems]
@@ -664,9 +684,7 @@ def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit"
         running = [b for b in running if not (states[b].converged or states[b].singular)]
         if not running:
             return states
-    for _ in running:
-        log.warning("%s did not converge in %d iterations (last axis step above %.3g radii)",
-                    what, max_iter, tol.GC_CONVERGENCE)
+    log.debug("%d %s(s) stopped at %d iterations, unconverged", len(running), what, max_iter)
     return states
 
 
@@ -808,7 +826,7 @@ def cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids):
         vertex_s=s, vertex_theta=np.arctan2(local[:, 2], local[:, 1]), vertex_local=local,
         vertex_weight=w, vertex_area=np.where(w > 0, area, 0.0), ends=tuple(end_ids),
         dense_s=axis.s, dense_points=axis.points, dense_frames=axis.frames,
-        iterations=it.count, converged=it.converged, lam=lam, mu=mu,
+        iterations=it.count, converged=it.converged, lam=lam, mu=mu, last_step=float(it.step),
     )
 
 

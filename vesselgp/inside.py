@@ -236,5 +236,5 @@ def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends
         f"the fitted axis bends tighter than its radius {where}: curvature x radius = {kr[k]:.2f} "
         f"(a tube needs less than {tol.GC_MAX_BEND:g}; its sections would overlap); likely too few vertices "
         "around a non-circular section (remesh finer, e.g. pymeshlab meshing_isotropic_explicit_remeshing, "
-        "or fit with a stiffer axis, e.g. lam=1.0), or a U-turn tighter than the radius"
+        "or fit a stiffer axis, e.g. lam=1.0), or a U-turn tighter than the radius"
     )

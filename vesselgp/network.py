@@ -12,10 +12,19 @@ VMTK's centre lines (``vmtkcenterlines``), split by ``vmtkbranchextractor`` and 
   junction): the zone is its own tract with ``Blanking`` 1, as VMTK blanks its bifurcation
   tracts. ``GroupIds`` numbers the tracts of the tree (a trunk tract shared by several paths has
   one group id, in every path's cell), so VMTK's group-wise tools see one group per branch piece.
-* **Points** are shared: a junction point is the last point of its parent's tract and the first
-  of each child's, so the network is connected (a trunk shared by several paths is stored once;
-  its cells repeat for each path, as VMTK's do). Each branch is sampled about every
-  ``tolerances.NETWORK_SPACING`` local radii (VMTK resamples its lines at a similar step).
+* **Points.** Each branch has its own points, as each of VMTK's cells has: at a junction the
+  parent's last point and each child's first lie on the junction, one per branch, each with its
+  own branch's values (a child's ``ParallelTransportNormals`` across its own tangent, not its
+  parent's; issue #44). A trunk shared by several paths is stored once and its cells repeat for
+  each path, as VMTK's do; the tracts of one branch share their boundary point. Each branch is
+  sampled about every ``tolerances.NETWORK_SPACING`` local radii (VMTK resamples its lines at a
+  similar step).
+* **Ends.** A line starts and stops where its inscribed sphere meets the end, as VMTK's do: at an
+  open end, the centre of its loop (the sphere reaching the rim); at a rounded tip, the centre of
+  its dome; at a flat cap, where the sphere of the fitted radius touches the cap (about one radius
+  in from it), not on the cap itself, where the inscribed sphere is none (the fit's axis runs on
+  to the cap's centre; a terminal point closer to the surface than
+  ``tolerances.NETWORK_CAP_FRACTION`` of its fitted radius lies on a cap).
 * **Point data** (VMTK's names): ``MaximumInscribedSphereRadius``, the distance from the point to
   the nearest point of the surface (VMTK's definition: the radius of the largest sphere centred
   there inside the lumen, not the fit's mean radius); ``Abscissas``, the arc length from the root
@@ -29,7 +38,7 @@ VMTK's centre lines (``vmtkcenterlines``), split by ``vmtkbranchextractor`` and 
   names: ``MeanRadius`` (Eq. 4's mean distance of the wall to the axis), ``BranchId`` (the
   tree's branch) and, from a torsion run, ``MaterialTwist`` (alpha, Eq. 6, in degrees).
 
-A point on a tract boundary (a junction) takes the values of the tract it ends (the parent's).
+A point on a tract boundary within a branch takes the values of both tracts (they are one branch's).
 """
 from __future__ import annotations
 
@@ -153,47 +162,68 @@ def centerline_network(fit, V, F=None, *, twist=None):
     >>> net = centerline_network(fit_vessel_tree(t.V, t.F), t.V, t.F)
     >>> net.cell_data["CenterlineIds"].tolist(), net.cell_data["Blanking"].tolist()
     ([0, 0, 0, 1, 1, 1], [0, 1, 0, 0, 1, 0])
-    >>> trunk_end, child_start = net.cells[0][-1], net.cells[1][0]
-    >>> bool(trunk_end == child_start)
+    >>> trunk_end, child_start = net.points[net.cells[0][-1]], net.points[net.cells[1][0]]
+    >>> bool(np.allclose(trunk_end, child_start))  # the junction: one point per branch, both on it
     True
     """
     winding = V.winding if isinstance(V, PreparedMesh) else None  # its closed surface, built once
     V, F = as_mesh(V, F)
+    surface = SurfaceWinding(V, F) if winding is None else winding
     branches, parent, pieces, paths = _pieces(fit)
     pts, data = [], {k: [] for k in ("MeanRadius", "Abscissas", "ParallelTransportNormals", "FrenetTangent",
-                                              "FrenetNormal", "FrenetBinormal", "Curvature", "Torsion",
-                                              "FrenetDefined", "BranchId", "MaterialTwist")}
-    end_id = np.full(len(branches), -1, np.int64)  # each branch's last point (its children start there)
+                                     "FrenetNormal", "FrenetBinormal", "Curvature", "Torsion",
+                                     "FrenetDefined", "BranchId", "MaterialTwist")}
     piece_ids = [[] for _ in branches]
     n = 0
-    for b in np.argsort(_depths(parent), kind="stable"):  # parents before children
-        gc, child = branches[b], parent[b] >= 0
-        parts = [_samples(gc, p.s0, p.s1) for p in pieces[b]]
+    for b, gc in enumerate(branches):
+        terminal = (parent[b] < 0, not np.any(parent == b))  # a root end at its start, a tip at its end
+        parts = _off_caps(gc, [_samples(gc, p.s0, p.s1) for p in pieces[b]], terminal, surface)
         s = np.concatenate([parts[0]] + [q[1:] for q in parts[1:]])  # the tracts share their boundary
         P, fr = gc.at(s)
         T, N, B, kappa, tau, ok = _branch_frenet(P, gc.mean_radius)
-        own = slice(1 if child else 0, None)  # a child's first point is its parent's last (the junction)
-        local = np.r_[[end_id[parent[b]]] if child else [], n + np.arange(len(s) - child)].astype(np.int64)
-        a0 = _abscissa_at_end(branches, parent, parent[b]) if child else 0.0
-        pts.append(P[own])
+        a0 = _abscissa_at_end(branches, parent, parent[b]) if parent[b] >= 0 else 0.0
+        pts.append(P)
         for key, val in (("MeanRadius", gc.radius_at(s)), ("Abscissas", a0 + s * gc.length),
                          ("ParallelTransportNormals", fr[:, 1]), ("FrenetTangent", T), ("FrenetNormal", N),
                          ("FrenetBinormal", B), ("Curvature", kappa), ("Torsion", tau),
                          ("FrenetDefined", ok.astype(np.int64)), ("BranchId", np.full(len(s), b, np.int64)),
                          ("MaterialTwist", None if twist is None else np.degrees(twist(b, s)))):
             if val is not None:
-                data[key].append(np.asarray(val)[own])
-        n += len(s) - child
-        end_id[b] = local[-1]
+                data[key].append(np.asarray(val))
         first = 0
         for q in parts:
-            piece_ids[b].append(local[first:first + len(q)])
+            piece_ids[b].append(n + first + np.arange(len(q)))
             first += len(q) - 1
+        n += len(s)
     points = np.vstack(pts)
     pdata = {k: np.concatenate(v) for k, v in data.items() if v}
-    pdata["MaximumInscribedSphereRadius"] = (SurfaceWinding(V, F) if winding is None else winding)(points)[1]
+    pdata["MaximumInscribedSphereRadius"] = surface(points)[1]
     cells, cdata = _cells(pieces, piece_ids, paths)
     return CenterlineNetwork(points=points, cells=tuple(cells), point_data=pdata, cell_data=cdata)
+
+
+def _off_caps(gc, parts, terminal, surface):
+    """The tracts' samples ``parts`` of a branch, its first / last tract starting / stopping where the sphere of
+    the fitted radius meets a flat cap at a terminal end (``terminal``: whether its start / end is one of the
+    mesh's ends), as VMTK's lines do (module notes). An end is on a cap when its point lies closer to the
+    surface than ``tolerances.NETWORK_CAP_FRACTION`` of the fitted radius there."""
+    parts = list(parts)
+    for side, k in ((0, 0), (1, -1)):
+        if not terminal[side]:
+            continue
+        q = parts[k]
+        d = surface(gc.at([q[k]])[0])[1][0]
+        if d >= tol.NETWORK_CAP_FRACTION * gc.radius_at([q[k]])[0]:
+            continue
+        qq = q if side == 0 else q[::-1]  # from the cap inwards
+        g = np.abs(qq - qq[0]) * gc.length - gc.radius_at(qq)  # arc from the cap less the radius: 0 where they meet
+        i = int(np.argmax(g >= 0)) if np.any(g >= 0) else len(qq)
+        if i >= len(qq) - 1:
+            continue  # a tract shorter than the radius: left whole
+        cut = qq[i - 1] + (qq[i] - qq[i - 1]) * (-g[i - 1] / (g[i] - g[i - 1]))  # g < 0 before i
+        qq = np.r_[cut, qq[i:]] if qq[i] != cut else qq[i:]
+        parts[k] = qq if side == 0 else qq[::-1]
+    return parts
 
 
 def _depths(parent):

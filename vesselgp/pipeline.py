@@ -33,7 +33,8 @@ from scipy.spatial.transform import Rotation
 from . import tolerances as tol
 from .bulges import tree_bulges
 from .deform import Frame
-from .errors import MismatchError, VesselError
+from .branches import root_end
+from .errors import MismatchError, OptionError, VesselError
 from .fit import fit_generalized_cylinder
 from .tree import fit_vessel_tree
 from .io import (read_case, read_mesh, to_json, write_case, write_centerlines, write_csv, write_json, write_mesh)
@@ -237,16 +238,23 @@ def read_mesh_in(path, units=None, scale=None):
 
 
 def _warn_units(path, sc, label):
-    """Log a WARNING naming the option to pass when a mesh in millimetres does not look like it."""
-    if sc.warning is None:
-        return
-    looks = f"bounding-box diagonal {sc.bbox_diagonal:.3g} looks like {UNIT_NAMES[sc.units_guess]}"
+    """Log a WARNING naming the option to pass when a mesh in millimetres does not look like it.
+
+    Without ``--units``/``--scale`` (``label`` None) the mesh's size is matched against metres,
+    centimetres and micrometres (:func:`vesselgp.mesh_scale`); with them, the converted mesh must span
+    a vessel's size (``tolerances.UNITS_MM_MIN_DIAG`` to ``UNITS_MM_MAX_DIAG`` mm of bounding-box
+    diagonal), else the units given are likely wrong (issue #44: a coronary in millimetres fitted
+    with ``--units cm`` spanned 724 mm, with no word)."""
     if label is None:
-        log.warning("%s: %s, not millimetres; pass --units %s to convert it (reports are then in millimetres), "
-                    "or --units mm if it is in millimetres", path, looks, sc.units_guess)
-    else:
-        log.warning("%s converted from %s into millimetres has a bounding-box diagonal of %.3g mm, not the 10-500 "
-                    "of a vessel; check --units/--scale", path, label, sc.bbox_diagonal)
+        if sc.warning is not None:
+            log.warning("%s: bounding-box diagonal %.3g looks like %s, not millimetres; pass --units %s to convert "
+                        "it (reports are then in millimetres), or --units mm if it is in millimetres", path,
+                        sc.bbox_diagonal, UNIT_NAMES[sc.units_guess], sc.units_guess)
+        return
+    if not tol.UNITS_MM_MIN_DIAG <= sc.bbox_diagonal <= tol.UNITS_MM_MAX_DIAG:
+        log.warning("%s converted from %s into millimetres has a bounding-box diagonal of %.3g mm, outside the "
+                    "%g-%g mm of a vessel; check --units/--scale (--units mm if it is in millimetres already)", path,
+                    label, sc.bbox_diagonal, tol.UNITS_MM_MIN_DIAG, tol.UNITS_MM_MAX_DIAG)
 
 
 class _LibraryScaleWarnings(logging.Filter):
@@ -293,6 +301,8 @@ def gc_to_dict(gc, units="mm"):
         "n_nodes": len(gc.s),
         "iterations": gc.iterations,
         "converged": gc.converged,
+        "fit": "converged" if gc.converged else "stopped",
+        "last_step": gc.last_step,
         "lam": gc.lam,
         "mu": gc.mu,
         "ends": list(gc.ends),
@@ -356,8 +366,8 @@ def _progress_iter(progress, it, desc):
 # ----------------------------------------------------------------------------- fit, torsion
 
 
-def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="radius", units=None, scale=None,
-            render=True):
+def run_fit(mesh, out, *, ends=None, root=None, n_nodes=None, lam=None, axis_format="both", shade="radius",
+            units=None, scale=None, render=True):
     """Fit a generalized cylinder to a mesh file and write ``axis.*`` and the shaded mesh into ``out``.
 
     A mesh with more than two ends and no ``ends`` given is fitted as a tree
@@ -368,7 +378,11 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="ra
     mesh : str or os.PathLike
     out : OutputFolder
     ends : (int, int), optional
+    root : int, optional
+        The end the paths start from (default the widest); with two ends, the end the axis starts at.
     n_nodes : int, optional
+    lam : float, optional
+        Eq. 2's weight of the axis's bending (default ``tolerances.GC_LAMBDA``), for a tube or a tree.
     axis_format : {"vtp", "ply", "both"}
     shade : {"radius", "theta", "none"}
         The shaded mesh's quantity: distance to the axis (mm) or angle about it (degrees).
@@ -383,12 +397,17 @@ def run_fit(mesh, out, *, ends=None, n_nodes=None, axis_format="both", shade="ra
     (GeneralizedCylinder, dict) or (VesselTree, dict)
         The fit and the contents of ``axis.json`` (``tree.json`` for a tree).
     """
+    if ends is not None and root is not None:
+        raise OptionError("give the root end (root=) or the two ends of one path (ends=), not both")
     V, F, uinfo = read_mesh_in(mesh, units, scale)
     pm = PreparedMesh(V, F)  # checked once: the ends, the fit, the centre lines' inscribed radius
     if ends is None and len(pm.ends) > 2:
-        return run_fit_tree(pm, mesh, out, uinfo, axis_format=axis_format, render=render)
+        return run_fit_tree(pm, mesh, out, uinfo, root=root, lam=lam, axis_format=axis_format, render=render)
+    if root is not None:
+        r = root_end(pm.ends, root)
+        ends = (r, 1 - r) if len(pm.ends) == 2 else ends
     t0 = time.perf_counter()
-    gc = fit_generalized_cylinder(pm, ends=ends, n_nodes=n_nodes)
+    gc = fit_generalized_cylinder(pm, ends=ends, n_nodes=n_nodes, lam=lam)
     dt = time.perf_counter() - t0
     d = {**gc_to_dict(gc), **uinfo, "bulges": bulges_to_dicts(tree_bulges((gc,), pm.sacs))}
     d.update(bbox_diagonal=float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), input=str(mesh), time_s=dt)
@@ -472,6 +491,7 @@ def tree_to_dict(tree, units="mm"):
     def branch(b, gc):
         return {"id": b, "parent": int(tree.parent[b]), "ends": list(gc.ends), "length": gc.length,
                 "mean_radius": gc.mean_radius, "iterations": gc.iterations, "converged": gc.converged,
+                "fit": tree.branch_fit[b], "last_step": gc.last_step,
                 "n_vertices": int(np.count_nonzero(tree.vertex_branch == b)), "s": gc.s, "centers": gc.centers,
                 "radii": gc.radii, "frames": {"T": gc.frames[:, 0], "U": gc.frames[:, 1], "V": gc.frames[:, 2]},
                 "junction_zone": float(tree.junction_zone[b]),
@@ -493,7 +513,7 @@ def tree_to_dict(tree, units="mm"):
     }
 
 
-def run_fit_tree(pm, mesh, out, uinfo, *, axis_format="both", render=True):
+def run_fit_tree(pm, mesh, out, uinfo, *, root=None, lam=None, axis_format="both", render=True):
     """Fit a branching mesh as a vessel tree and write ``tree.*`` and the branch-coloured mesh into ``out``.
 
     Parameters
@@ -505,6 +525,10 @@ def run_fit_tree(pm, mesh, out, uinfo, *, axis_format="both", render=True):
     out : OutputFolder
     uinfo : dict
         Units of the input (:func:`read_mesh_in`).
+    root : int, optional
+        The root end (default the widest; ``tree.json`` says which: ``root_chosen``).
+    lam : float, optional
+        Eq. 2's weight of the branch axes' bending (default ``tolerances.GC_LAMBDA``).
     axis_format : {"vtp", "ply", "both"}
     render : bool
 
@@ -519,9 +543,9 @@ def run_fit_tree(pm, mesh, out, uinfo, *, axis_format="both", render=True):
     """
     t0 = time.perf_counter()
     V, F = pm.V, pm.F
-    tree = fit_vessel_tree(pm)
+    tree = fit_vessel_tree(pm, root=root, lam=lam)
     dt = time.perf_counter() - t0
-    d = {**tree_to_dict(tree), **uinfo, "bbox_diagonal": float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))),
+    d = {**tree_to_dict(tree), "root_chosen": "widest" if root is None else "given", **uinfo, "bbox_diagonal": float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))),
          "input": str(mesh), "time_s": dt}
     write_json(out("tree.json"), d)
     _write_centerlines(out, "tree", centerline_network(tree, pm), axis_format)
@@ -535,6 +559,7 @@ def run_fit_tree(pm, mesh, out, uinfo, *, axis_format="both", render=True):
         from scipy.spatial import cKDTree
 
         axes = np.vstack([gc.dense_points for gc in tree.branches])
+        which = "the widest" if root is None else "the root given"
         Vv, Fv, shade_v = _for_view(V, F, shade)
         render_mesh(out("tree.png"), Vv, Fv, shade_v, vmin=-0.5, vmax=used - 0.5, cmap=first_colors(cmap, used),
                     cbar_label="branch (id in tree.json)", alpha=tol.VIZ_TREE_ALPHA,
@@ -542,14 +567,14 @@ def run_fit_tree(pm, mesh, out, uinfo, *, axis_format="both", render=True):
                     title=f"{Path(mesh).name}: {nb} branch{'es' * (nb != 1)}, {nj} junction{'s' * (nj != 1)}, "
                           f"{len(tree.paths)} paths; axes {sum(gc.length for gc in tree.branches):.0f} mm in all",
                     caption=f"Black lines: the branch axes; the translucent surface is coloured by branch. The "
-                            f"paths run from end {tree.root} (the widest) to each other end.")
+                            f"paths run from end {tree.root} ({which}) to each other end.")
         write_report_html(out("report.html"), f"{Path(mesh).name}: vessel tree",
                           [ViewMesh(Vv, Fv, cKDTree(axes).query(Vv)[0], label="distance to the axis (mm)")],
                           lines=[gc.dense_points for gc in tree.branches],
                           labels=[(e.center, f"end {i}") for i, e in enumerate(tree.ends)],
                           figures=[out.dir / "tree.png"], numbers=d,
                           caption=f"{len(tree.branches)} branches, {len(tree.junctions)} junctions, {len(tree.paths)} "
-                                  f"paths from end {tree.root} (the widest). The surface is shaded by each vertex's "
+                                  f"paths from end {tree.root} ({which}). The surface is shaded by each vertex's "
                                   "distance to the nearest branch axis (black lines). Drag to turn, scroll to zoom.")
     return tree, to_json(d)
 

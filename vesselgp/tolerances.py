@@ -365,6 +365,11 @@ UNITS_CM_MAX_DIAG = 5.0
 UNITS_CM_EDGE_FRACTION = 0.02
 #: Units guess: a diagonal above this suggests micrometres.
 UNITS_UM_MIN_DIAG = 5000.0
+#: A mesh converted into millimetres (--units, --scale) should span a vessel's 10-500 mm: a bounding-box
+#: diagonal outside these bounds (mm) is warned about, naming the option (the real meshes span 48-347 mm;
+#: a 72 mm coronary given as centimetres spans 724 mm, an aorta in metres given as centimetres 3 mm).
+UNITS_MM_MIN_DIAG = 5.0
+UNITS_MM_MAX_DIAG = 600.0
 
 # --- smoothing and units (issue #13) ---
 #: Taubin smoothing (``clean_mesh(smooth=N)``, pymeshlab ``apply_coord_taubin_smoothing``):
@@ -463,8 +468,15 @@ ENDS_TIP_DOME_TO = 0.85
 #: Rounded tips: a maximum closer than this many radii to a tip's centre is on that tip.
 ENDS_TIP_SEPARATION = 1.5
 #: A rounded dome wider than this many times the widest open or capped end of its mesh is a blind
-#: sac, not a vessel end (vesselgp.mesh.ends._without_sacs).
+#: sac, not a vessel end (vesselgp.mesh.ends._without_sacs) ...
 ENDS_SAC_RATIO = 1.1
+#: ... unless it closes a tube of its own: rings past its equator planar, round (aspect at least
+#: ENDS_SAC_TUBE_ASPECT), no narrower than 1 - ENDS_SAC_TUBE_NARROWING of its radius (wider is a bulb,
+#: a sinus: still its tube) and moving on along its axis for at least this many of its radii (a vessel
+#: ends there; a sac's sphere narrows to 0.75 R within 0.72 R past its equator, then its neck).
+ENDS_SAC_TUBE_RADII = 2.0
+ENDS_SAC_TUBE_NARROWING = 0.25
+ENDS_SAC_TUBE_ASPECT = 0.6
 
 # --- report.html (vesselgp.html_report) ------------------------------------------
 #: Opacity of the shaded mesh in the 3D view (below 1: the axis and the end labels show through).
@@ -481,6 +493,9 @@ REPORT_CAMERA_EYE = (1.9, 1.9, 1.4)
 #: Centre-line points about every this many local (mean) radii along each branch (VMTK resamples
 #: its lines at a step of this order).
 NETWORK_SPACING = 0.1
+#: A terminal point of a centre line closer to the surface than this fraction of its fitted radius lies on a
+#: flat cap: the line starts (or stops) where the sphere of the fitted radius meets the cap instead.
+NETWORK_CAP_FRACTION = 0.5
 
 # --- geodesic distances (vesselgp.mesh.geodesic) --------------------------------
 #: The heat time is at least extent^2 / (4 * this), the extent being twice the largest distance

@@ -108,6 +108,13 @@ class VesselTree:
         Where the lumen along the paths is wider than on both sides of it (a sac, a bulb, an
         ectasia): each with its paths, its stretch and peak, and its peak and neighbouring radius
         (:func:`vesselgp.bulges.tree_bulges`). The paths pass through it; none on a tube.
+    branch_fit : tuple of str
+        How each branch's axis was found: ``"converged"`` (the Eq. 3 fixed point settled within
+        ``tolerances.GC_CONVERGENCE`` radii), ``"stopped"`` (it reached the iteration cap still moving
+        less than ``tolerances.TREE_UNSETTLED`` radii per iteration: its ``last_step`` says how much)
+        or ``"centre line"`` (it did not settle, or its system was singular, a stub a few edges
+        around: the axis is the lumen's centre line, its radius refitted on it). Every kind passed
+        the checks against the mesh.
     checks : FitChecks
         The fit checked against its mesh (:func:`vesselgp.checks.fit_checks`): every path's gap to
         its ends, the fraction of the wall it covers and the pieces it leaves uncovered.
@@ -125,6 +132,7 @@ class VesselTree:
     junction_zone: np.ndarray
     medial_zones: tuple
     bulges: tuple
+    branch_fit: tuple = ()
     checks: FitChecks | None = None
 
     def path_to(self, end):
@@ -504,22 +512,25 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
         return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                           branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                           vertex_branch=np.zeros(len(V), np.int64), junction_zone=np.zeros(1),
-                          medial_zones=(np.zeros((0, 2)),), bulges=tree_bulges((gc,), pm.sacs), checks=gc.checks)
+                          medial_zones=(np.zeros((0, 2)),), bulges=tree_bulges((gc,), pm.sacs),
+                          branch_fit=("converged" if gc.converged else "stopped",), checks=gc.checks)
     area = pm.areas
     br = decomposed(V, Fg, ends, root, loops=topo.boundary_loops)
     caps, leaf_tip, problems, ids = _branch_problems(V, area, ends, root, br)
     # the branches' fixed points in lock step (one vectorised pass per iteration over all of them)
     fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit",
                         singular="stop")
-    raw, medial = [], []
+    raw, medial, how = [], [], []
     for b, (idx, it, p) in enumerate(zip(ids, fits, problems)):
-        if it.converged or it.step <= tol.TREE_UNSETTLED * p.rscale:
+        how.append("converged" if it.converged else "stopped" if it.step <= tol.TREE_UNSETTLED * p.rscale
+                   else "centre line")
+        if how[-1] != "centre line":
             nodes, zones = medial_zones(it.nodes, br.lines[b], br.line_radius[b], p.rscale)
         else:  # a fixed point still wandering (a stub on its junction's flare), or one whose system is
             # singular (a stub with too few vertices around some of its nodes), is no fit: the centre line
-            log.info("tree branch %d: its fit %s; its axis is the lumen's centre line", b,
-                     "is singular (too few vertices around it)" if it.singular else
-                     f"still moves {it.step / p.rscale:.2g} radii per iteration")
+            log.debug("tree branch %d: its fit %s; its axis is the lumen's centre line", b,
+                      "is singular (too few vertices around it)" if it.singular else
+                      f"still moves {it.step / p.rscale:.2g} radii per iteration")
             nodes = resample_arclength(br.lines[b], len(it.nodes))
             zones = np.array([[0.0, chord_length(br.lines[b])[-1]]])
             if it.radii is None:  # singular from the first iteration: the inscribed radius along the line
@@ -550,8 +561,30 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     tree = VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
                       path_branches=tuple(path_branches), vertex_branch=br.vertex_branch,
-                      junction_zone=zone, medial_zones=medial, bulges=tree_bulges(paths, pm.sacs))
-    return replace(tree, checks=fit_checks(tree, pm))  # every end reached, the wall covered (or raise)
+                      junction_zone=zone, medial_zones=medial, bulges=tree_bulges(paths, pm.sacs),
+                      branch_fit=tuple(how))
+    balls = (np.vstack(br.centerlines.points), np.concatenate(br.centerlines.radius))  # the lumen's spheres
+    tree = replace(tree, checks=fit_checks(tree, pm, balls))  # every end reached, the wall covered (or raise)
+    _log_branch_fits(tree, [p.rscale for p in problems], max_iter)
+    return tree
+
+
+def _log_branch_fits(tree, rscales, max_iter):
+    """One INFO line on the branches whose fit did not converge (:attr:`VesselTree.branch_fit`), if any."""
+    stopped = [b for b, h in enumerate(tree.branch_fit) if h == "stopped"]
+    medial = [b for b, h in enumerate(tree.branch_fit) if h == "centre line"]
+    if not stopped and not medial:
+        return
+    parts = []
+    if stopped:
+        worst = max(raw_step / r for raw_step, r in ((tree.branches[b].last_step, rscales[b]) for b in stopped))
+        parts.append(f"{len(stopped)} stopped at {max_iter} iterations still moving up to {worst:.2g} radii per "
+                     f"iteration (branches {', '.join(map(str, stopped))})")
+    if medial:
+        parts.append(f"{len(medial)} did not settle and take the lumen's centre line (branches "
+                     f"{', '.join(map(str, medial))})")
+    log.info("vessel tree: of %d branch fits, %s; every axis passed the checks against the mesh",
+             len(tree.branch_fit), "; ".join(parts))
 
 
 def _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial):

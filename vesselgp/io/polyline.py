@@ -114,7 +114,7 @@ def write_polylines(path, lines, point_data=None, cell_data=None):
 def write_centerlines(path, network):
     """Write centre lines (:class:`vesselgp.network.CenterlineNetwork`) as VMTK has them, atomically.
 
-    ``.vtp``: VTK XML PolyData over shared points, one ``<Lines>`` cell per tract, VMTK's point and
+    ``.vtp``: VTK XML PolyData over the network's points, one ``<Lines>`` cell per tract, VMTK's point and
     cell arrays (integer cell arrays as ``Int32``, as VMTK writes them), which VTK, ParaView,
     3D Slicer and VMTK's scripts read. ``.ply``: the same points and each cell's edges, scalar
     point arrays as vertex properties and cell arrays as edge properties (MeshLab).

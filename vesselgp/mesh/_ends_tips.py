@@ -70,7 +70,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from .. import tolerances as tol
 
-__all__ = ["find_tips", "extreme_tips", "persistent_maxima"]
+__all__ = ["find_tips", "extreme_tips", "own_tube", "persistent_maxima"]
 
 log = logging.getLogger(__name__)
 
@@ -478,6 +478,57 @@ def _circles(eig, h):
         return True
     return not (np.any(eig[:, 1] < tol.ENDS_TIP_RING_ASPECT * eig[:, 2])
                 or np.any(eig[:, 0] > tol.ENDS_TIP_RING_FLATNESS * eig[:, 2] + h * h / 12.0))
+
+
+def own_tube(V, G, tip, h):
+    """How far a tip's dome goes on as a tube of its own, in its radii past the dome's equator.
+
+    The geodesic rings from the tip's vertex are followed past the equator (``pi R / 2``) while each
+    is planar (:func:`_circles`' flatness), round (the two larger eigenvalues of its scatter within
+    ``tolerances.ENDS_SAC_TUBE_ASPECT``), no narrower than ``1 - ENDS_SAC_TUBE_NARROWING`` of the
+    dome's ``R`` (wider is the vessel's own bulb or sinus) and its centroid moves on, away from the
+    equator's ring; the tube ends between its last ring and the first that is not (where their radius
+    crosses the narrowing's floor, else half way), or at ``ENDS_SAC_TUBE_RADII`` and a half radii,
+    the most looked at. A vessel's rounded end goes on as its vessel; a sac's
+    sphere narrows to 0.75 R within ``R arccos(0.75)`` = 0.72 R past its equator, and its rings then
+    close on the neck or break up on the parent's wall (a junction's rings are not round).
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    G : (n, n) sparse
+        The edge-length graph.
+    tip : dict
+        A record of :func:`find_tips` (``tip``, ``radius``).
+    h : float
+        Median edge length.
+
+    Returns
+    -------
+    float
+        The tube's length past the equator, in radii.
+    """
+    R = float(tip["radius"])
+    dstar = 0.5 * np.pi * R
+    L = dstar + (tol.ENDS_SAC_TUBE_RADII + 0.5) * R + 2 * h
+    rg = _rings(V, dijkstra(G, indices=int(tip["tip"]), limit=L), h, L)
+    d, rho, C, n, eig = rg["d"], rg["rho"], rg["C"], rg["n"], rg["eig"]
+    past = np.flatnonzero((n >= tol.ENDS_MIN_RING) & (d >= dstar))
+    if not len(past):
+        return 0.0
+    e = eig[past]
+    ok = ((rho[past] >= (1.0 - tol.ENDS_SAC_TUBE_NARROWING) * R) & (e[:, 1] >= tol.ENDS_SAC_TUBE_ASPECT * e[:, 2])
+          & (e[:, 0] <= tol.ENDS_TIP_RING_FLATNESS * e[:, 2] + h * h / 12.0))
+    ok &= np.r_[True, np.einsum("ij,ij->i", np.diff(C[past], axis=0), C[past][1:] - C[past][0]) > 0]  # moving on
+    if ok.all():
+        return float((d[past[-1]] + h - dstar) / R)
+    stop = int(np.argmin(ok))
+    if stop == 0:
+        return 0.0
+    a, b = past[stop - 1], past[stop]  # the tube's last ring and the first that is not
+    floor = (1.0 - tol.ENDS_SAC_TUBE_NARROWING) * R
+    t = (rho[a] - floor) / (rho[a] - rho[b]) if rho[b] < floor < rho[a] else 0.5  # where it narrows past the floor
+    return float(max(d[a] + t * (d[b] - d[a]) - dstar, 0.0) / R)
 
 
 def extreme_tips(V, G, h, sources, used):

@@ -24,7 +24,7 @@ from ..errors import EndsError, InvalidMeshError, NotTubularError
 from ._ends_caps import find_caps
 from ._ends_format import bbox_diagonal, end_listing, format_point
 from ._ends_staircase import check_staircase
-from ._ends_tips import extreme_tips, find_tips
+from ._ends_tips import extreme_tips, find_tips, own_tube
 from ._geometry import loop_centroid, vector_area
 from .orient import orient_faces
 from .topology import MeshTopology
@@ -351,31 +351,39 @@ def _compare_ends(a, b):
     return int(ka > kb) - int(ka < kb)
 
 
-def _without_sacs(tips, ends, sacs):
-    """The rounded tips that are vessel ends: not a dome wider than every open or capped end.
+def _without_sacs(tips, ends, sacs, V, G, h):
+    """The rounded tips that are vessel ends: not a dome wider than every open or capped end on no tube of its own.
 
     On a mesh whose vessels were cut open (or capped flat) at their ends, a closed rounded dome
     wider than ``tolerances.ENDS_SAC_RATIO`` times the widest of those ends is a blind sac (an
     aneurysm on a side wall or at a bifurcation, whose dome and neck can pass the hemisphere
-    test), not a vessel's end (issue #34: "a blind sac is not an end"); it is logged and left
-    to the fit, whose path passes it, and appended to ``sacs`` as ``(center, direction, radius)``.
-    A closed mesh's domes (no cut end to compare with) and a mesh left with fewer than two ends
-    keep them all. A vessel closed at a root wider than every cut end (an aortic or pulmonary
-    root closed at its valve, its branches cut open) is taken for a sac by this rule; the log
-    names it, and cutting the root open (or capping it flat) makes it an end.
+    test), not a vessel's end (issue #34: "a blind sac is not an end") -- unless the dome closes a
+    tube of its own, at least ``ENDS_SAC_TUBE_RADII`` of its radii long (:func:`._ends_tips.own_tube`):
+    then a vessel ends there, wider than the cut ends (a carotid's internal carotid wider than the
+    common carotid, an aortic root closed at its valve; issue #44: the wider daughter of a Y was taken
+    for a sac and its vessel left without an axis). A sac is logged and left to the fit, whose path
+    passes it, and appended to ``sacs`` as ``(center, direction, radius)``. A closed mesh's domes (no
+    cut end to compare with) and a mesh left with fewer than two ends keep them all.
     """
     if not ends or not tips:
         return tips
     widest = max(e.radius for e in ends)
-    keep = [t for t in tips if t["radius"] <= tol.ENDS_SAC_RATIO * widest]
+    wide = [t["radius"] > tol.ENDS_SAC_RATIO * widest for t in tips]
+    tube = [own_tube(V, G, t, h) if w else np.inf for t, w in zip(tips, wide)]
+    sac = [w and L < tol.ENDS_SAC_TUBE_RADII for w, L in zip(wide, tube)]
+    keep = [t for t, s in zip(tips, sac) if not s]
     if len(ends) + len(keep) < 2:
         return tips
-    for t in tips:
-        if t["radius"] > tol.ENDS_SAC_RATIO * widest:
-            log.info("a rounded dome of radius %.4g at %s is wider than every open or capped end (the widest "
-                     "%.4g): a blind sac, not a vessel end", t["radius"], np.round(t["center"], 3).tolist(), widest)
+    for t, w, L, s in zip(tips, wide, tube, sac):
+        where = f"a rounded dome of radius {t['radius']:.4g} at {np.round(t['center'], 3).tolist()}"
+        if s:
+            log.info("%s is wider than every open or capped end (the widest %.4g) and goes on as a tube of its own "
+                     "for %.2g radii only: a blind sac, not a vessel end", where, widest, L)
             sacs.append((np.asarray(t["center"], np.float64), np.asarray(t["direction"], np.float64),
                          float(t["radius"])))
+        elif w:
+            log.info("%s is wider than every open or capped end (the widest %.4g) but closes a tube of its own "
+                     "(%.2g radii or more): a vessel end", where, widest, L)
     return keep
 
 
@@ -407,7 +415,8 @@ def _rounded_ends(V, topo, normals, ends, graph, h, scale, nearby, sacs):
             "mesh is not tubular: no two ends found (most edges have zero length); run vesselgp.clean_mesh"
         )
     sources = np.unique(np.concatenate([e.vertices for e in ends])) if ends else np.zeros(0, np.int64)
-    tips = _without_sacs(find_tips(V, topo.F, *normals, graph(), topo.edges, h, sources, used), ends, sacs)
+    tips = _without_sacs(find_tips(V, topo.F, *normals, graph(), topo.edges, h, sources, used), ends, sacs, V,
+                         graph(), h)
     if len(ends) + len(tips) < 2:
         more = [t["region"] for t in tips]
         src = np.unique(np.concatenate([sources, *more])) if more else sources
