@@ -1299,14 +1299,21 @@ def run_ends(mesh, out, *, units=None, scale=None):
         The contents of ``ends.json``: ``command``, ``input``, ``units``,
         ``input_units``, ``to_mm``, ``bbox_diagonal``, ``n_ends`` and ``ends``,
         one ``{index, kind, radius, center, direction}`` per end in the order
-        of :func:`vesselgp.vessel_ends` (the indices ``--ends I J`` takes).
+        of :func:`vesselgp.vessel_ends` (the indices ``--ends I J`` takes); what was
+        left out: ``sacs`` (rounded domes that are blind sacs: ``{radius, center, direction}``)
+        and ``not_caps`` (flat patches the wall meets round most of their rims that are not
+        caps: ``{radius, center, direction, n_faces, reason}``).
     """
     V, F, uinfo = read_mesh_in(mesh, units, scale)
-    ends = vessel_ends(V, F)
+    pm = PreparedMesh(V, F)
+    ends = pm.ends
     d = {"command": "ends", "input": str(mesh), **uinfo,
          "bbox_diagonal": float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), "n_ends": len(ends),
          "ends": [{"index": i, "kind": e.kind, "radius": float(e.radius), "center": np.asarray(e.center, float),
-                   "direction": np.asarray(e.direction, float)} for i, e in enumerate(ends)]}
+                   "direction": np.asarray(e.direction, float)} for i, e in enumerate(ends)],
+         "sacs": [{"radius": r, "center": c, "direction": n} for c, n, r in pm.sacs],
+         "not_caps": [{"radius": float(p.end.radius), "center": p.end.center, "direction": p.end.direction,
+                       "n_faces": len(p.end.faces), "reason": p.reason} for p in pm.flat_patches]}
     write_json(out("ends.json"), d)
     return to_json(d)
 
@@ -1330,6 +1337,12 @@ def ends_table(d):
         rows.append("{:>3}  {:<8} {:>11.4g}  {:<29} {}".format(
             e["index"], e["kind"], e["radius"], format_point(e["center"], d["bbox_diagonal"]),
             format_point(e["direction"], 1.0)))
+    for s in d.get("sacs", ()):
+        rows.append(f"not an end: a blind sac, dome radius {s['radius']:.4g} {u} at "
+                    f"{format_point(s['center'], d['bbox_diagonal'])}")
+    for p in d.get("not_caps", ()):
+        rows.append(f"not an end: a flat patch of {p['n_faces']} faces, radius {p['radius']:.4g} {u} at "
+                    f"{format_point(p['center'], d['bbox_diagonal'])}: {p['reason']}")
     return "\n".join(rows)
 
 

@@ -11,6 +11,7 @@ as potpourri3d's solvers keep their factorisation.
 """
 from __future__ import annotations
 
+import copy
 import logging
 from functools import cached_property
 from typing import NamedTuple
@@ -76,7 +77,7 @@ class PreparedMesh:
         self.V, self.F = V, F
         self.checked = checked_mesh(V, F, topo)
         self._given_ends = None if ends is None else _valid_ends(ends)
-        self._sacs = []
+        self._sacs, self._flat_patches = [], []
 
     @property
     def topology(self):
@@ -88,7 +89,7 @@ class PreparedMesh:
         """tuple of VesselEnd: the given ends, or :func:`vesselgp.vessel_ends` of the mesh (found once)."""
         if self._given_ends is not None:
             return self._given_ends
-        return tuple(found_ends(self.V, self.F, self.topology, sacs=self._sacs))
+        return tuple(found_ends(self.V, self.F, self.topology, sacs=self._sacs, flat_patches=self._flat_patches))
 
     @property
     def sacs(self):
@@ -97,6 +98,28 @@ class PreparedMesh:
         direction and radius; empty when the ends were given."""
         _ = self.ends
         return tuple(self._sacs)
+
+    @property
+    def flat_patches(self):
+        """tuple of FlatPatch: the flat disks :func:`vesselgp.vessel_ends` did not take for caps though the wall
+        meets most of their rims (a cap whose rim remeshing rounded off, or that its body widens too fast
+        behind), each as the cap it would be and why it is not one; empty when the ends were given. A tree
+        fit whose centre lines reach none takes it for the cap of a vessel whose end was missed (issue #44)."""
+        _ = self.ends
+        return tuple(self._flat_patches)
+
+    def with_ends(self, ends):
+        """This mesh, its checks, areas and closed surface kept, with the given ``ends`` (sequence of VesselEnd).
+
+        Raises
+        ------
+        EndsError
+            ``ends`` are not VesselEnd objects.
+        """
+        other = copy.copy(self)
+        other.__dict__.pop("ends", None)
+        other._given_ends, other._sacs, other._flat_patches = _valid_ends(ends), list(self.sacs), []
+        return other
 
     @cached_property
     def areas(self):

@@ -551,21 +551,28 @@ class _Section:
     def __init__(self, radius, ellipticity, ellipse_angle, bulges):
         self.r = _fn_of_s(radius, "radius", positive=True)
         self.beta = _fn_of_s(ellipse_angle, "ellipse_angle")
-        e = float(ellipticity)
-        if not (0 < e <= 1e3) or not np.isfinite(e):
+        self.e = _fn_of_s(ellipticity, "ellipticity", positive=True)
+        grid = np.linspace(0.0, 1.0, tol.SYNTH_ELLIPTICITY_SAMPLES)
+        e = self.e(grid)
+        if not np.all(np.isfinite(e) & (e > 0) & (e <= 1e3)):
             raise InvalidMeshError(f"ellipticity must be a positive axis ratio b/a, got {ellipticity}")
-        self.e = e
-        self.bulges = _parse_bulges(bulges)
         th = self.theta_grid()
-        self._m_e = float(_perimeter_mean(self._ellipse(th), th))
+        if callable(ellipticity):  # the unit ellipse's perimeter-mean radius along s (smooth: interpolated)
+            means = _perimeter_mean(self._ellipse(th[None, :], e[:, None]), th)
+            self._m_e = lambda s: np.interp(s, grid, means)
+        else:
+            m = float(_perimeter_mean(self._ellipse(th, float(e[0])), th))
+            self._m_e = lambda s: m
+        self.bulges = _parse_bulges(bulges)
 
     @staticmethod
     def theta_grid():
         return np.linspace(0, 2 * np.pi, tol.SYNTH_SECTION_SAMPLES, endpoint=False)
 
-    def _ellipse(self, phi):
+    @staticmethod
+    def _ellipse(phi, e):
         # polar radius of x = cos(p), y = e sin(p): a b / sqrt((b cos)^2 + (a sin)^2), a = 1
-        return self.e / np.hypot(self.e * np.cos(phi), np.sin(phi))
+        return e / np.hypot(e * np.cos(phi), np.sin(phi))
 
     def nominal(self, s):
         """r(s) times the axisymmetric bulge factors: perimeter-mean radius without sinuses."""
@@ -578,7 +585,7 @@ class _Section:
 
     def __call__(self, s, theta):
         s, theta = np.broadcast_arrays(np.asarray(s, float), np.asarray(theta, float))
-        rho = self.nominal(s) / self._m_e * self._ellipse(theta - self.beta(s))
+        rho = self.nominal(s) / self._m_e(s) * self._ellipse(theta - self.beta(s), self.e(s))
         ang = np.ones_like(rho)
         for b in self.bulges:
             if b["lobes"] > 0:
@@ -870,8 +877,9 @@ def synthetic_vessel(curve, radius=1.5, *, ellipticity=1.0, ellipse_angle=0.0, b
     radius : float, callable or (k,) float64
         Perimeter-mean section radius r(s) (see module docstring), a function
         of normalized arc length, or samples at uniform s (cubic spline).
-    ellipticity : float
-        Axis ratio b / a of the elliptic section (1 = circle).
+    ellipticity : float or callable
+        Axis ratio b / a of the elliptic section (1 = circle), or a function of s (a vein flattened
+        in its middle).
     ellipse_angle : float or callable
         Angle (radians) of the ellipse's a-axis from the material U axis, or a function of s.
     bulges : sequence of (s0, width, amplitude) or dict

@@ -19,9 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .mesh import mesh_topology
 from .synthetic_tree import tree_surface
 
-__all__ = ["bezier_between", "siphon_tree"]
+__all__ = ["bezier_between", "capped_arch", "clip_and_cap", "siphon_tree"]
 
 
 def bezier_between(P0, d0, P3, d1, k0, k1):
@@ -70,3 +71,143 @@ def siphon_tree(voxel=0.35, blend=0.5):
                bezier_between(J, [-0.3, -0.5, -0.8], J + [4, -14, 10], [0.3, 0.3, 1.0], 16, 12)]
     radii = [[3.0, 2.9], [2.9, 2.6], [1.8, 1.6], [1.8, 1.5]]
     return tree_surface([-1, 0, 1, 1], control, radii, voxel=voxel, blend=blend)
+
+
+def clip_and_cap(V, F, center, direction, radius, behind=0.0):
+    """Cut a tube's end off by a plane and close the cut with a flat fan: a capped outlet.
+
+    The plane lies ``behind`` radii behind ``center`` along the unit outward ``direction``; only the
+    surface within ``behind + 2`` radii of ``center`` is cut (the rest of the mesh is left whole).
+    Vertices within a twentieth of a median edge of the plane are moved onto it (no slivers); the
+    faces in front are dropped, those across it cut, and the one new boundary loop on the plane is
+    closed by a fan from its centroid (as many triangles as the loop has vertices), whose rim is sharp
+    where the wall meets the plane.
+
+    Returns
+    -------
+    V : (n', 3) float64
+    F : (m', 3) int64
+    centre : (3,) float64
+        The cap's true centre: the point of the plane on the line through ``center`` along ``direction``.
+
+    Raises
+    ------
+    ValueError
+        The plane does not cut one loop off the surface near ``center``.
+    """
+    n = np.asarray(direction, np.float64) / np.linalg.norm(direction)
+    q = np.asarray(center, np.float64) - behind * radius * n
+    V = np.array(V, np.float64)
+    phi = (V - q) @ n
+    h = np.median(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1))
+    local = np.linalg.norm(V - center, axis=1) < (behind + 2.0) * radius
+    snap = local & (np.abs(phi) < 0.05 * h)  # onto the plane: no sliver triangles
+    V[snap] -= np.outer(phi[snap], n)
+    phi[snap] = 0.0
+    front = local & (phi > 0)
+    nf = front[F].sum(axis=1)
+    out = [F[nf == 0]]
+    W = list(V)
+    cache = {}
+
+    def cross(a, b):  # the plane's crossing of edge a (in front) - b (behind or on it)
+        if phi[b] == 0:
+            return b
+        key = (min(a, b), max(a, b))
+        if key not in cache:
+            t = phi[a] / (phi[a] - phi[b])
+            W.append(V[a] + t * (V[b] - V[a]))
+            cache[key] = len(W) - 1
+        return cache[key]
+
+    for f in F[(nf == 1) | (nf == 2)]:
+        fr = front[f]
+        if fr.sum() == 2:  # keep the back vertex and the two crossings
+            s = int(np.flatnonzero(~fr)[0])
+            a, b, c = f[s], f[(s + 1) % 3], f[(s + 2) % 3]
+            out.append([[a, cross(b, a), cross(c, a)]])
+        else:  # one vertex in front: keep the quad behind
+            s = int(np.flatnonzero(fr)[0])
+            a, b, c = f[s], f[(s + 1) % 3], f[(s + 2) % 3]
+            x, y = cross(a, b), cross(a, c)
+            out.append([[x, b, c], [x, c, y]])
+    W = np.array(W)
+    F2 = np.vstack(out).astype(np.int64)
+    on = np.abs((W - q) @ n) < 1e-12 * (1 + np.abs(q).max())
+    F2 = F2[(F2[:, 0] != F2[:, 1]) & (F2[:, 1] != F2[:, 2]) & (F2[:, 2] != F2[:, 0]) & ~on[F2].all(axis=1)]
+    used = np.unique(F2)
+    remap = np.full(len(W), -1)
+    remap[used] = np.arange(len(used))
+    W, F2 = W[used], remap[F2]
+    loops = [lp for lp in mesh_topology(F2, len(W)).boundary_loops
+             if np.abs((W[lp] - q) @ n).max() < 1e-9 * (1 + np.abs(q).max())]
+    if len(loops) != 1:
+        raise ValueError(f"the plane cuts {len(loops)} loops off the surface near {center}, not one")
+    lp = loops[0]
+    c = W[lp].mean(axis=0)
+    W = np.vstack([W, c])
+    cap = np.c_[np.full(len(lp), len(W) - 1), np.roll(lp, -1), lp]
+    return W, np.vstack([F2, cap]), q
+
+
+def capped_arch(voxel=1.4, blend=2.0, sinus=0.45):
+    """An aortic arch with three arch branches, every end capped flat, the widest (the ascending aorta's,
+    radius 13.8 mm: 2.6-3.3 times the branches') behind a sinus bulge.
+
+    The shape of a capped arch segmented from 4D-flow MRI (the real one whose widest cap was missed,
+    issue #44): the descending aorta (radius 10.6-11.3 mm) rises to the arch (12.2-12.8 mm), which
+    gives off the brachiocephalic (6.0-5.4), the left carotid (4.6-4.2) and the left subclavian
+    (5.4-5.0) arteries and comes down as the ascending aorta to its root, closed at the valve plane by
+    a flat cap of radius 13.8 mm. Behind that cap the root widens by ``sinus`` (a Gaussian bulge of the
+    radius peaking 8 mm in: the sinuses of Valsalva, 1.3 times the annulus with the default) and
+    narrows again. Every end is cut flat across its tube (:func:`clip_and_cap`): the caps are fans of
+    as many triangles as their rims have vertices (about 60 for the root's at the default voxel).
+
+    Parameters
+    ----------
+    voxel : float
+        Grid spacing of the marching cubes (mm): the mesh's edge length, about.
+    blend : float
+        Width of the smooth union at the junctions (mm).
+    sinus : float
+        Amplitude of the root's bulge (0: none).
+
+    Returns
+    -------
+    V : (n, 3) float64
+    F : (m, 3) int64
+    truth : SyntheticTree
+        The tree before capping (its branches' exact centre lines and radii).
+    caps : list of (centre (3,), outward direction (3,), radius)
+        The five caps, the root's (the ascending aorta's) first, then the brachiocephalic's, the
+        carotid's, the subclavian's and the descending aorta's.
+    """
+    z = np.array([0.0, 0.0, 1.0])
+    c45, k = np.sqrt(0.5), 40.0 * 4.0 / 3.0 * np.tan(np.pi / 16)  # the arch: a half circle of radius 40 mm
+    D, J3, J2, J1, A = (np.array(p, np.float64) for p in ([0, 0, 56], [-40 + 40 * c45, 0, 56 + 40 * c45],
+                                                           [-40, 0, 96], [-40 - 40 * c45, 0, 56 + 40 * c45],
+                                                           [-80, 0, 24]))
+    control = [bezier_between([0, 0, 0], z, D, z, 18, 18),  # 0 descending aorta (the generator's root)
+               bezier_between(D, z, J3, [-1, 0, 1], k, k),  # 1 distal arch
+               bezier_between(J3, [0.3, -0.15, 1], J3 + [8, -6, 34], [0.3, -0.2, 1], 10, 10),  # 2 subclavian
+               bezier_between(J3, [-1, 0, 1], J2, [-1, 0, 0], k, k),  # 3 arch
+               bezier_between(J2, [0, 0.15, 1], J2 + [2, 4, 34], [0.1, 0.1, 1], 10, 10),  # 4 left carotid
+               bezier_between(J2, [-1, 0, 0], J1, [-1, 0, -1], k, k),  # 5 proximal arch
+               bezier_between(J1, [-0.25, 0.1, 1], J1 + [-8, 6, 34], [-0.1, 0.2, 1], 10, 10),  # 6 brachiocephalic
+               bezier_between(J1, [-1, 0, -1], A, -z, 18, 25)]  # 7 ascending aorta, down to its root
+    t0, w = 0.885, 0.07
+    root = 13.8 / (1.0 + sinus * np.exp(-0.5 * ((1.0 - t0) / w) ** 2))  # the linear radius that ends at 13.8
+    radii = [[10.6, 11.3], [11.3, 11.8], [5.4, 5.0], [11.8, 12.2], [4.6, 4.2], [12.2, 12.6], [6.0, 5.4],
+             [12.6, root]]
+    truth = tree_surface([-1, 0, 1, 1, 3, 3, 5, 5], control, radii, voxel=voxel, blend=blend,
+                         bulges={7: [(t0, w, sinus)]} if sinus else None)
+    V, F = truth.V, truth.F
+    caps = []
+    for b in (7, 6, 4, 2):  # the tips: cut across at their centres (the dome in front goes)
+        br = truth.truth.branches[b]
+        c, d, r = br.point([1.0])[0], br.tangent([1.0])[0], float(br.radius([1.0])[0])
+        V, F, q = clip_and_cap(V, F, c, d, r)
+        caps.append((q, d, r))
+    V, F, q = clip_and_cap(V, F, np.zeros(3), -z, 10.6, behind=1.0 / 10.6)  # the descending aorta's open end,
+    caps.append((q, -z, 10.6))  # cut 1 mm up its tube
+    return V, F, truth, caps

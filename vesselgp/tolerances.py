@@ -38,9 +38,6 @@ STRAIGHT_AXIS_DEVIATION = 1e-3
 #: Orthonormality tolerance for frames handed to the library by a user.
 FRAME_ORTHONORMAL = 1e-6
 
-#: Dihedral angle (radians) above which an edge is a sharp feature (a cap rim).
-SHARP_EDGE_ANGLE = 1.0  # about 57 degrees
-
 #: Max deviation of a flat cap's face normals from their mean (radians).
 CAP_FLATNESS = 0.2
 
@@ -173,6 +170,8 @@ SYNTH_AXIS_SAMPLES = 2001
 SYNTH_ARCLENGTH_QUADRATURE = 40001
 #: Angular samples of a cross-section for its perimeter-mean radius (Eq. 4 convention).
 SYNTH_SECTION_SAMPLES = 720
+#: A section whose ellipticity varies along s is scaled by its unit ellipse's mean radius at this many s (interpolated).
+SYNTH_ELLIPTICITY_SAMPLES = 401
 #: Newton steps refining the projection of a vertex onto the true axis.
 SYNTH_NEWTON_STEPS = 4
 #: Distance to an end plane (times the mean radius) below which a vertex lies on that end.
@@ -400,12 +399,21 @@ STAIRCASE_MIN_TERRACES = 20
 STAIRCASE_PLANE_EDGES = 0.5
 #: ... and a terrace counts when it holds at least this many squared median edges of area.
 STAIRCASE_TERRACE_AREA = 1.0
-#: Caps: across each rim edge the wall stands within this angle (radians) of perpendicular
-#: to the cap.
+#: Caps: across a rim edge the wall is the cap's when it stands within this angle (radians) of
+#: perpendicular to the cap, widening or narrowing behind it (a rim is then a crease of at least
+#: pi / 2 minus this: 44 degrees) ...
 CAP_RIM_TILT = 0.8  # about 46 degrees
-#: Caps: at least this fraction of a cap's rim (by length) is sharp (SHARP_EDGE_ANGLE); the
-#: rest may be blunter, down to CAP_RIM_TILT from perpendicular (a noisy wall).
-CAP_RIM_SHARP_FRACTION = 0.75
+#: ... and it is, behind the cap, along at least this fraction of the rim's length (a decimated or
+#: noisy rim has a folded or flattened face here and there; the 4D-flow arch decimated to 30 %: one
+#: rim edge of 64).
+CAP_RIM_WALLED_FRACTION = 0.9
+#: A flat disk that is not a cap is reported (and checked by the fit for an axis reaching it) when its
+#: rim is walled along at least this fraction of its length, its radius is at least CAP_SUSPECT_RADIUS of
+#: the narrowest end's and it has at least CAP_SUSPECT_FACES faces (a cap whose rim remeshing rounded
+#: off: 60 % walled, 194 faces; the faces of a noisy wall are flat patches of 1-5, often walled half round).
+CAP_SUSPECT_WALLED = 0.5
+CAP_SUSPECT_RADIUS = 0.5
+CAP_SUSPECT_FACES = 8
 #: Caps: the wall face's third vertex lies off the cap's plane by at least this fraction of
 #: its distance from the rim edge (on the same side all round).
 CAP_RIM_MIN_SLOPE = 0.05
@@ -416,10 +424,21 @@ CAP_TUBE_REACH = 2.0
 CAP_TUBE_MIN_DEPTH = 0.5
 #: ... none of it may lie more than this many rim radii in front of the plane ...
 CAP_FRONT_TOLERANCE = 0.1
-#: ... and it stays within this many times the rim's largest radius of the cap's axis ...
+#: ... the body behind it, found along the surface as far as this many rim radii (and as deep as
+#: CAP_TUBE_REACH of them: past a bulge) ...
+CAP_TUBE_SEARCH = 4.0
+#: ... has its deepest part (within CAP_TUBE_DEEP rim radii of its deepest point) within this many
+#: times the rim's largest radius of the cap's axis ...
 CAP_TUBE_SPREAD = 1.25
 #: ... plus this much per unit depth behind the cap (a cone widening at up to 27 degrees).
 CAP_TUBE_FLARE = 0.5
+#: ... the deepest part being the body within this many rim radii of its deepest point ...
+CAP_TUBE_DEEP = 0.5
+#: ... while nearer the cap the tube may bulge to this many times the rim's largest radius (plus the
+#: flare), and narrow again: the sinuses of Valsalva behind an aortic valve's plane (1.3-1.5 times the
+#: annulus; a terrace of a staircase is followed by a wider one, not a narrower). A root wider still is
+#: reported (a flat patch that is not a cap) and taken for a cap by the fit when no axis reaches it.
+CAP_TUBE_BULGE = 1.7
 #: Rounded tips: maxima of the geodesic distance from the other ends whose persistence is
 #: below this many median edges are noise on a ridge, not tips.
 ENDS_TIP_MIN_PERSISTENCE = 3.0
@@ -650,8 +669,12 @@ CHECK_MOUTH_RADII = 2.0
 #: from the axis: a side sac's dome reaches r + 2 R_sac, a vessel with no axis as far as it is long.
 CHECK_ZONE_REACH = 2.0
 #: The largest uncovered piece of wall, in radii of tube wall (area / (2 pi r^2)): on the 11 real
-#: meshes 0.8 at most (four vertices of a 0.35 mm coronary's flare); a 4-tip tree with one end left
-#: out leaves 3.2-4.4.
+#: meshes 0.21 at most, on their 77 coarser copies 1.36 (a sac not reported as a bulge); a 4-tip tree
+#: with one end left out leaves 2.5-6.9.
 CHECK_MAX_UNCOVERED = 1.5
+#: ... and one larger than this is named in a WARNING (the fit stands): the voxelised aneurysm remeshed at
+#: 2 edges leaves its sac, not reported as a bulge there, 1.36 radii of wall uncovered; the 11 real meshes at
+#: most 0.21.
+CHECK_WARN_UNCOVERED = 0.5
 #: Reports list at most this many uncovered pieces.
 CHECK_LIST_MAX = 10

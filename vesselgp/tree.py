@@ -44,7 +44,9 @@ from scipy.spatial import cKDTree
 from . import tolerances as tol
 from ._interop import polylines_to_pyvista
 from .axis import Axis
+from ._arrays import within_balls
 from .branches import decomposed, root_end
+from .centerlines import centerlines
 from .bulges import tree_bulges
 from .checks import FitChecks, fit_checks
 from .curves import chord_length, resample_arclength
@@ -501,19 +503,15 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     max_iter = tol.GC_MAX_ITER if max_iter is None else int(max_iter)
     if geodesics is not None:
         geodesics.check(V, Fg)
-    ends = pm.ends
-    if len(ends) < 2:
-        raise EndsError(f"a vessel tree needs at least two ends, the mesh has {len(ends)} "
+    if len(pm.ends) < 2:
+        raise EndsError(f"a vessel tree needs at least two ends, the mesh has {len(pm.ends)} "
                         "(see vesselgp.vessel_ends)")
+    pm = _with_missed_caps(pm, root)
+    ends = pm.ends
     root = root_end(ends, root)
     if len(ends) == 2:
-        gc = fit_generalized_cylinder(pm, ends=(root, 1 - root), lam=lam, mu=mu, max_iter=max_iter,
-                                      geodesics=geodesics)
-        return VesselTree(ends=ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
-                          branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
-                          vertex_branch=np.zeros(len(V), np.int64), junction_zone=np.zeros(1),
-                          medial_zones=(np.zeros((0, 2)),), bulges=tree_bulges((gc,), pm.sacs),
-                          branch_fit=("converged" if gc.converged else "stopped",), checks=gc.checks)
+        return _one_path(pm, root, fit_generalized_cylinder(pm, ends=(root, 1 - root), lam=lam, mu=mu,
+                                                           max_iter=max_iter, geodesics=geodesics))
     area = pm.areas
     br = decomposed(V, Fg, ends, root, loops=topo.boundary_loops)
     caps, leaf_tip, problems, ids = _branch_problems(V, area, ends, root, br)
@@ -585,6 +583,40 @@ def _log_branch_fits(tree, rscales, max_iter):
                      f"{', '.join(map(str, medial))})")
     log.info("vessel tree: of %d branch fits, %s; every axis passed the checks against the mesh",
              len(tree.branch_fit), "; ".join(parts))
+
+
+def _one_path(pm, root, gc):
+    """The tree of one branch of a mesh with two ends, fitted as the single vessel ``gc``."""
+    return VesselTree(ends=pm.ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
+                      branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
+                      vertex_branch=np.zeros(len(pm.V), np.int64), junction_zone=np.zeros(1),
+                      medial_zones=(np.zeros((0, 2)),), bulges=tree_bulges((gc,), pm.sacs),
+                      branch_fit=("converged" if gc.converged else "stopped",), checks=gc.checks)
+
+
+def _with_missed_caps(pm, root):
+    """``pm`` with the flat patches no centre line reaches taken for caps (appended to its ends), if any.
+
+    :func:`vesselgp.vessel_ends` reports the flat disks that the wall meets round most of their rims but
+    that it did not take for caps (:attr:`vesselgp.PreparedMesh.flat_patches`: a cap whose rim remeshing
+    rounded off, or whose body bulges too far behind it). The lumen's centre lines from the root to every
+    end found (:func:`vesselgp.centerlines.centerlines`) pass within their inscribed radius of a patch on a
+    vessel's wall (a facet); a patch that no inscribed sphere of theirs reaches, scaled by
+    ``1 + tolerances.CHECK_COVER_TOLERANCE``, closes a vessel whose end was missed, and the fit would
+    leave that vessel without an axis (or take it for a bulge of the path beside it: issue #44, a capped
+    arch whose ascending aorta's cap was missed). It becomes an end (logged at WARNING).
+    """
+    if not pm.flat_patches:
+        return pm
+    lines = centerlines(pm.V, pm.checked.faces, pm.ends, root_end(pm.ends, root), loops=pm.topology.boundary_loops)
+    C, R = np.vstack(lines.points), (1.0 + tol.CHECK_COVER_TOLERANCE) * np.concatenate(lines.radius)
+    missed = [p.end for p in pm.flat_patches if not within_balls(p.end.center[None], C, R)[0]]
+    if not missed:
+        return pm
+    for k, p in enumerate(missed):
+        log.warning("no centre line reaches the flat patch %s, which vesselgp.vessel_ends did not take for a cap; "
+                    "it is the cap of a vessel whose end was missed: end %d", p.describe(), len(pm.ends) + k)
+    return pm.with_ends(tuple(pm.ends) + tuple(missed))
 
 
 def _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial):

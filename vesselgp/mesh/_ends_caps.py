@@ -5,21 +5,33 @@ dihedral angle is below ``tolerances.CAP_FLATNESS``) that
 
 * is flat (every face normal within ``tolerances.CAP_FLATNESS`` of the mean),
   a disk (one rim loop, Euler characteristic 1) and touches no mesh boundary;
-* is bounded by sharp edges (dihedral angle above
-  ``tolerances.SHARP_EDGE_ANGLE``) on at least
-  ``tolerances.CAP_RIM_SHARP_FRACTION`` of its rim, and met all round its rim
-  by the vessel wall: across every rim edge the neighbouring face stands
-  within ``tolerances.CAP_RIM_TILT`` of perpendicular to the cap, and lies
-  behind the cap's plane, on the same side for every rim edge (a noisy wall
-  may meet the rim more bluntly than a sharp edge here and there);
+* is met round its rim by the vessel wall: across a rim edge the neighbouring
+  face stands within ``tolerances.CAP_RIM_TILT`` of perpendicular to the cap
+  (the wall widening or narrowing behind it) and lies behind the cap's plane,
+  along at least ``tolerances.CAP_RIM_WALLED_FRACTION`` of the rim's length,
+  all on one side (a decimated or noisy rim has a folded or flattened face
+  here and there; an aortic root's wall leaves its valve plane flaring out
+  at up to 40 degrees into its sinuses);
 * closes the tube, so the rim is the whole cross-section: the surface within
   ``tolerances.CAP_TUBE_REACH`` rim radii (or wall edges, if longer) of the
-  rim, geodesic, stays behind the plane, reaches
-  ``tolerances.CAP_TUBE_MIN_DEPTH`` rim radii deep, and stays within
+  rim, geodesic, stays behind the plane and reaches
+  ``tolerances.CAP_TUBE_MIN_DEPTH`` rim radii deep; the body behind it, as
+  far as ``tolerances.CAP_TUBE_SEARCH`` of those radii along the surface and
+  ``CAP_TUBE_REACH`` of them deep, has its deepest part (within
+  ``tolerances.CAP_TUBE_DEEP`` rim radii of the deepest point) within
   ``tolerances.CAP_TUBE_SPREAD`` times the rim's largest radius of the cap's
-  axis, plus ``tolerances.CAP_TUBE_FLARE`` times its depth (a tube may
-  widen behind its cap like a cone, not like the next terrace of a
-  staircase).
+  axis, plus ``tolerances.CAP_TUBE_FLARE`` times its depth (a tube may widen
+  behind its cap like a cone, not like the next terrace of a staircase), and
+  nearer the cap it may bulge out to ``tolerances.CAP_TUBE_BULGE`` times that
+  radius (plus the flare) and come back (the sinuses behind an aortic valve's
+  plane).
+
+A flat disk met round its rim by the wall that does not close the tube, or one
+of at least ``tolerances.CAP_SUSPECT_FACES`` faces met by the wall on at least
+``tolerances.CAP_SUSPECT_WALLED`` of its rim only (a rim rounded off by
+remeshing), is not a cap, and is reported (:func:`find_caps` returns it with
+the reason), never silently dropped: if it closes a vessel after all, the fit
+finds no axis there and takes it for that vessel's cap (issue #44).
 
 The size is judged against the vessel there, never in absolute edges: an
 outlet capped by a single triangle or two is a cap when its rim is the whole
@@ -67,36 +79,47 @@ def find_caps(V, F, topo, N, A, graph):
         Face ids (c,) int64, the rim loop (k,) int64, the centre (3,) float64
         (area-weighted) and the unit normal (3,) float64 pointing out of the
         vessel (away from the wall behind the cap).
+    refused : list of (faces, loop, center, normal, reason)
+        The flat disks met round their rims by the wall that do not close the
+        tube, with why (str).
     """
     split = _patches(topo, N)
     if split is None:
-        return []
-    lab, ncomp, rim, sharp = split
+        return [], []
+    lab, ncomp, rim = split
     flat, mhat = _flat_patches(topo, N, A, lab, ncomp)
-    sign = _rim_sides(V, F, topo, N, lab, flat, mhat, rim, sharp)
-    cands = np.flatnonzero(flat & (sign != 0))
+    sign, walled = _rim_sides(V, F, topo, N, lab, flat, mhat, rim)
+    size = np.bincount(lab, minlength=ncomp)
+    suspect = (walled >= tol.CAP_SUSPECT_WALLED) & (size >= tol.CAP_SUSPECT_FACES)  # partly walled, not a facet
+    cands = np.flatnonzero(flat & ((sign != 0) | suspect))
     if len(cands) == 0:
-        return []
+        return [], []
     order = np.argsort(lab, kind="stable")
     starts = np.searchsorted(lab[order], cands)
-    counts = np.bincount(lab, minlength=ncomp)[cands]
-    caps = []
+    counts = size[cands]
+    caps, refused = [], []
     for c, s0, k in zip(cands, starts, counts):
         fids = np.sort(order[s0:s0 + k])
-        cap = _closing_cap(V, F, fids, A, -sign[c] * mhat[c], graph)
-        if cap is not None:
+        side = sign[c] if sign[c] else -1  # a partly walled patch: the wall is taken to lie behind its normal
+        cap = (_closing_cap(V, F, fids, A, -side * mhat[c], graph) if sign[c] else
+               f"its rim is met by the wall on {100 * walled[c]:.0f} % of its length only (a rounded or ragged rim)")
+        if isinstance(cap, str):
+            if cap != "not a disk" and _is_disk(F, fids):
+                refused.append(_disk(V, F, fids, A, -side * mhat[c]) + (cap,))
+        else:
             caps.append(cap)
-    log.debug("caps: %d patches, %d flat, %d walled all round, %d close the tube",
-              ncomp, int(flat.sum()), len(cands), len(caps))
-    return caps
+    log.debug("caps: %d patches, %d flat, %d walled round their rims, %d close the tube",
+              ncomp, int(flat.sum()), int(np.count_nonzero(flat & (sign != 0))), len(caps))
+    return caps, refused
 
 
 def _patches(topo, N):
-    """Face labels of the coplanar patches, or None when no edge is sharp (then no cap exists).
+    """Face labels of the coplanar patches, or None when no edge is steep enough to be a cap's rim
+    (a dihedral angle of ``pi / 2 - tolerances.CAP_RIM_TILT`` or more: then no cap exists).
 
     Faces are joined across edges whose dihedral angle is below
     ``tolerances.CAP_FLATNESS``, so a noisy wall face meeting a cap at a
-    blunter angle than ``tolerances.SHARP_EDGE_ANGLE`` is not taken into it.
+    blunter angle than a rim's is not taken into it.
 
     Returns
     -------
@@ -105,8 +128,6 @@ def _patches(topo, N):
     ncomp : int
     rim : (s,) int64
         Ids of the interior edges between patches.
-    sharp : (s,) bool
-        Which of them are sharp (dihedral angle above ``tolerances.SHARP_EDGE_ANGLE``).
     """
     inner = np.flatnonzero(topo.edge_face_count == 2)
     # take, not fancy indexing: numpy gathers rows that way 2-8x faster (the same rows)
@@ -115,14 +136,13 @@ def _patches(topo, N):
     cos = np.empty(len(inner), np.float32)  # coherent mesh: normals agree in sense
     for c in chunks(len(inner), tol.EDGE_CHUNK):  # the gathered normals a few MB at a time
         np.einsum("ij,ij->i", N32.take(f[c], axis=0), N32.take(g[c], axis=0), out=cos[c])
-    is_sharp = cos < np.cos(tol.SHARP_EDGE_ANGLE)
-    if not is_sharp.any():
+    if not np.any(cos < np.cos(0.5 * np.pi - tol.CAP_RIM_TILT)):
         return None
     keep = cos >= np.cos(tol.CAP_FLATNESS)
     m = len(N)
     G = sp.csr_array((np.ones(int(keep.sum()), dtype=np.int8), (f[keep], g[keep])), shape=(m, m))
     ncomp, lab = connected_components(G, directed=False)
-    return lab, ncomp, inner[~keep], is_sharp[~keep]
+    return lab, ncomp, inner[~keep]
 
 
 def _flat_patches(topo, N, A, lab, ncomp):
@@ -145,19 +165,21 @@ def _flat_patches(topo, N, A, lab, ncomp):
     return flat, mhat
 
 
-def _rim_sides(V, F, topo, N, lab, flat, mhat, rim, sharp):
-    """For each patch, on which side of its plane the wall lies all round its rim.
+def _rim_sides(V, F, topo, N, lab, flat, mhat, rim):
+    """For each patch, on which side of its plane the wall lies round its rim.
 
-    Across each rim edge of a flat patch, the wall face must stand within
-    ``tolerances.CAP_RIM_TILT`` of perpendicular to the patch, and its third
-    vertex must lie off the patch's plane; all on one side. At least
-    ``tolerances.CAP_RIM_SHARP_FRACTION`` of the rim's length must be sharp.
+    Across a rim edge of a flat patch, the wall face stands within
+    ``tolerances.CAP_RIM_TILT`` of perpendicular to the patch and its third
+    vertex lies off the patch's plane; it must do so on one side along at least
+    ``tolerances.CAP_RIM_WALLED_FRACTION`` of the rim's length.
 
     Returns
     -------
     sign : (ncomp,) int
-        -1 when the wall is behind the mean normal all round, +1 in front all
-        round, 0 otherwise (or for patches that are not flat).
+        -1 when the wall is behind the mean normal round the rim, +1 in front,
+        0 otherwise (or for patches that are not flat).
+    walled : (ncomp,) float64
+        The larger fraction of the rim's length met by the wall on one side.
     """
     ncomp = len(flat)
     E = topo.edges[rim]
@@ -177,48 +199,84 @@ def _rim_sides(V, F, topo, N, lab, flat, mhat, rim, sharp):
         reach = np.linalg.norm(off, axis=1)
         h = np.einsum("ij,ij->i", off, n)
         s = np.where(h > tol.CAP_RIM_MIN_SLOPE * reach, 1, np.where(h < -tol.CAP_RIM_MIN_SLOPE * reach, -1, 0))
-        sides.append((p, np.where(upright, s, 0), length[ok], sharp[ok]))
-    p, s, ln, sh = (np.concatenate(x) for x in zip(*sides))
-    total = np.bincount(p, minlength=ncomp)
-    pos = np.bincount(p, weights=s == 1, minlength=ncomp)
-    neg = np.bincount(p, weights=s == -1, minlength=ncomp)
+        sides.append((p, np.where(upright, s, 0), length[ok]))
+    p, s, ln = (np.concatenate(x) for x in zip(*sides))
     rim_len = np.bincount(p, weights=ln, minlength=ncomp)
-    sharp_len = np.bincount(p, weights=ln * sh, minlength=ncomp)
+    pos = np.bincount(p, weights=ln * (s == 1), minlength=ncomp)
+    neg = np.bincount(p, weights=ln * (s == -1), minlength=ncomp)
+    need = tol.CAP_RIM_WALLED_FRACTION * rim_len
     sign = np.zeros(ncomp, dtype=np.int64)
-    sharp_enough = sharp_len >= tol.CAP_RIM_SHARP_FRACTION * rim_len
-    sign[(total > 0) & (pos == total) & sharp_enough] = 1
-    sign[(total > 0) & (neg == total) & sharp_enough] = -1
-    return sign
+    sign[(rim_len > 0) & (pos >= need)] = 1
+    sign[(rim_len > 0) & (neg >= need)] = -1
+    walled = np.divide(np.maximum(pos, neg), rim_len, out=np.zeros(ncomp), where=rim_len > 0)
+    return sign, walled
+
+
+def _is_disk(F, fids):
+    """Whether the faces ``fids`` of ``F`` form a disk (one boundary loop, Euler characteristic 1)."""
+    ids, local = np.unique(F[fids], return_inverse=True)
+    patch = MeshTopology(np.ascontiguousarray(local.reshape(-1, 3), dtype=np.int64), len(ids))
+    return len(patch.boundary_loops) == 1 and patch.euler_characteristic == 1
+
+
+def _disk(V, F, fids, A, n_out):
+    """(faces, rim loop, area-weighted centre, outward normal) of a patch that is a disk."""
+    ids, local = np.unique(F[fids], return_inverse=True)
+    loop = ids[MeshTopology(np.ascontiguousarray(local.reshape(-1, 3), dtype=np.int64), len(ids)).boundary_loops[0]]
+    w = A[fids]
+    center = (w[:, None] * V[F[fids]].mean(axis=1)).sum(axis=0) / w.sum()
+    return fids, loop, center, n_out
+
+
+def _body_behind(V, G, loop, ids, center, n_out, size):
+    """The surface behind a patch, as deep as ``CAP_TUBE_REACH`` times ``size`` (the rim's radius, or its wall's
+    median edge when longer) and connected to its rim within that slab (as far as ``CAP_TUBE_SEARCH`` times
+    ``size`` along it: past a bulge, not round the vessel's bends into its other parts): offsets from the
+    patch's centre (k, 3) and depths (k,)."""
+    depth = -((V - center) @ n_out)
+    slab = (depth >= 0.0) & (depth <= tol.CAP_TUBE_REACH * size)
+    slab[ids] = True  # the patch itself, and its rim, the sources
+    sub = np.flatnonzero(slab)
+    where = np.full(len(V), -1)
+    where[sub] = np.arange(len(sub))
+    g = dijkstra(G[sub][:, sub], indices=where[loop], min_only=True, limit=tol.CAP_TUBE_SEARCH * size)
+    body = sub[np.isfinite(g)]
+    body = body[~np.isin(body, ids)]
+    return V[body] - center, depth[body]
 
 
 def _closing_cap(V, F, fids, A, n_out, graph):
-    """(faces, loop, centre, normal) when the patch is a disk that closes the tube, else None."""
+    """(faces, loop, centre, normal) when the patch is a disk that closes the tube, else why not (str)."""
     ids, local = np.unique(F[fids], return_inverse=True)
     patch = MeshTopology(np.ascontiguousarray(local.reshape(-1, 3), dtype=np.int64), len(ids))
     loops = patch.boundary_loops
     if len(loops) != 1 or patch.euler_characteristic != 1:
-        return None  # not a disk
-    loop = ids[loops[0]]
-    w = A[fids]
-    center = (w[:, None] * V[F[fids]].mean(axis=1)).sum(axis=0) / w.sum()
+        return "not a disk"
+    _, loop, center, _ = _disk(V, F, fids, A, n_out)
     P = V[loop] - center
     lateral = np.linalg.norm(P - np.outer(P @ n_out, n_out), axis=1)
     a, amax = float(lateral.mean()), float(lateral.max())
     if not a > 0:
-        return None
+        return "not a disk"
     G = graph()
     rows = G[loop]
     size = max(amax, float(rows.data.max()) if rows.nnz else 0.0)  # the rim radius, or the wall's edges
     g = dijkstra(G, indices=loop, min_only=True, limit=tol.CAP_TUBE_REACH * size)
     near = np.flatnonzero(g < np.inf)
     near = near[~np.isin(near, ids, assume_unique=True)]
-    X = V[near] - center
-    depth = -(X @ n_out)
-    if len(X) == 0 or depth.min() < -tol.CAP_FRONT_TOLERANCE * a:
-        return None  # the surface goes on in front of the cap: a step, not an end
-    if depth.max() < tol.CAP_TUBE_MIN_DEPTH * a:
-        return None  # nothing behind it: a flat side, not a cross-section
+    depth_reach = -((V[near] - center) @ n_out)
+    if len(near) == 0 or depth_reach.min() < -tol.CAP_FRONT_TOLERANCE * a:
+        return "the surface goes on in front of it (a step)"
+    if depth_reach.max() < tol.CAP_TUBE_MIN_DEPTH * a:
+        return "nothing lies behind it (a flat side)"
+    X, depth = _body_behind(V, G, loop, ids, center, n_out, max(amax, float(np.median(rows.data))))
+    if not len(X):  # an outlet an edge or two across: its body is the reach's
+        X, depth = V[near] - center, np.maximum(depth_reach, 0.0)
     side = np.linalg.norm(X + np.outer(depth, n_out), axis=1)
-    if np.any(side > tol.CAP_TUBE_SPREAD * amax + tol.CAP_TUBE_FLARE * np.maximum(depth, 0.0)):
-        return None  # the body widens behind it: a terrace or a facet, not the whole section
+    flare = tol.CAP_TUBE_FLARE * depth
+    deep = depth >= depth.max() - tol.CAP_TUBE_DEEP * a
+    if np.any(side[deep] > tol.CAP_TUBE_SPREAD * amax + flare[deep]):
+        return f"the body behind it widens to {side[deep].max() / amax:.2g} times its rim (a terrace)"
+    if np.any(side > tol.CAP_TUBE_BULGE * amax + flare):
+        return f"the body behind it bulges to {side.max() / amax:.2g} times its rim"
     return fids, loop, center, n_out

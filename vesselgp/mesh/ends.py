@@ -13,6 +13,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, field, replace
 from functools import cmp_to_key
+from typing import NamedTuple
 
 import igl
 import numpy as np
@@ -29,7 +30,7 @@ from ._geometry import loop_centroid, vector_area
 from .orient import orient_faces
 from .topology import MeshTopology
 
-__all__ = ["vessel_ends", "VesselEnd", "select_ends"]
+__all__ = ["vessel_ends", "VesselEnd", "FlatPatch", "select_ends"]
 
 log = logging.getLogger(__name__)
 
@@ -89,6 +90,21 @@ class VesselEnd:
         if scale is None or not scale > 0:
             scale = float(np.linalg.norm(self.center)) + 10.0 * float(self.radius)
         return f"{self.kind} r={self.radius:.3g} at {format_point(self.center, scale)}"
+
+
+class FlatPatch(NamedTuple):
+    """A flat disk the wall meets round most of its rim that :func:`vessel_ends` did not take for a cap.
+
+    Attributes
+    ----------
+    end : VesselEnd
+        The cap it would be (kind ``"cap"``: its rim, faces, centre, outward direction, radius).
+    reason : str
+        Why it is not a cap.
+    """
+
+    end: VesselEnd
+    reason: str
 
 
 def vessel_ends(V, F=None, *, topology=None):
@@ -163,12 +179,14 @@ def vessel_ends(V, F=None, *, topology=None):
     return found_ends(V, F, topo)
 
 
-def found_ends(V, F, topo, sacs=None):
+def found_ends(V, F, topo, sacs=None, flat_patches=None):
     """:func:`vessel_ends` of a mesh already validated and oriented (``topo`` of ``F``), not checked again.
 
     For :class:`vesselgp.PreparedMesh`, which validates its arrays and orients its faces once. The
     blind sacs found on the way (domes that are not ends, :func:`_without_sacs`) are appended to the
-    list ``sacs`` when one is given, each as ``(center (3,), outward direction (3,), radius)``.
+    list ``sacs`` when one is given, each as ``(center (3,), outward direction (3,), radius)``; the
+    flat disks met round their rims by the wall that are not caps (:func:`._ends_caps.find_caps`,
+    logged), to ``flat_patches``, each as a :class:`FlatPatch`.
     """
     N, A = _face_normals(V, F)
     w = topo.edge_lengths(V)
@@ -179,9 +197,19 @@ def found_ends(V, F, topo, sacs=None):
     graph = _Lazy(lambda: topo.edge_matrix(w))
     body = _Nearby(V)
     ends = _open_ends(V, topo, scale, body)
-    for fids, loop, center, n in find_caps(V, F, topo, N, A, graph):
+    caps, refused = find_caps(V, F, topo, N, A, graph)
+    for fids, loop, center, n in caps:
         ends.append(_make_end(body, "cap", loop, np.unique(F[fids]), center, n, scale, faces=fids))
     ends += _rounded_ends(V, topo, (N, A), ends, graph, h, scale, body, [] if sacs is None else sacs)
+    narrowest = min(e.radius for e in ends)
+    for fids, loop, center, n, why in refused:
+        patch = _make_end(body, "cap", loop, np.unique(F[fids]), center, n, scale, faces=fids)
+        if patch.radius < tol.CAP_SUSPECT_RADIUS * narrowest:
+            continue  # a facet, a terrace: smaller than any vessel here
+        log.info("a flat patch of %d faces (radius %.3g) at %s is not a cap: %s", len(fids), patch.radius,
+                 format_point(center, scale), why)
+        if flat_patches is not None:
+            flat_patches.append(FlatPatch(patch, why))
     ends.sort(key=cmp_to_key(_compare_ends))
     log.info("found %d vessel ends: %s", len(ends), end_listing(ends))
     return tuple(ends)
