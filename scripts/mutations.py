@@ -25,6 +25,18 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    "tip_edge_slack_off": (
+        "vesselgp/mesh/_ends_tips.py",
+        "    slack = tol.ENDS_TIP_EDGE_SLACK * h",
+        "    slack = 0.0 * h",
+        ["tests/test_tip_checks.py", "tests/test_anatomy.py"],
+    ),
+    "tip_band_one_edge_thick": (
+        "vesselgp/mesh/_ends_tips.py",
+        "    return (tol.ENDS_TIP_BAND_EDGES * h) ** 2 / 12.0",
+        "    return h ** 2 / 12.0",
+        ["tests/test_tip_checks.py"],
+    ),
     "check_uncovered_warning_loosened": (
         "vesselgp/checks.py",
         "        if u.size > tol.CHECK_WARN_UNCOVERED:",

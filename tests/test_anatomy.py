@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import vesselgp
+from vesselgp import tolerances as tol
 from vesselgp.prepared import PreparedMesh
 from vesselgp.synthetic_anatomy import capped_arch
 
@@ -137,3 +138,98 @@ def test_the_command_line_lists_what_is_not_an_end_and_fits_the_missed_cap(arche
     assert any("no centre line reaches the flat patch" in r.getMessage() for r in caplog.records)
     d = json.loads((tmp_path / "f" / "tree.json").read_text())
     assert d["n_ends"] == 5 and d["root"] == 4 and d["bulges"] == []
+
+
+@pytest.fixture(scope="module")
+def vein():
+    from vesselgp.synthetic_anatomy import vein_tree
+
+    return vein_tree(voxel=0.35)
+
+
+def test_a_closed_vein_tree_has_every_small_blind_end(vein):
+    """A closed vein tree of 32 rounded blind ends 3 voxels across over five generations (the portal vein
+    that lost all but 6 of its ~40 ends): every tip found within a fifth of its radius of the true centre
+    of its dome, and the root's cap; the tree fitted from the cap (the widest end) to each tip, every path
+    reaching its tip, the axes within 5 % of their radius of the true centre lines away from junctions and
+    tips (the generator's interior), the wall covered."""
+    V, F, truth, cap = vein
+    tree = vesselgp.fit_vessel_tree(V, F)
+    t = truth.truth
+    assert len(tree.ends) == 33 and len(t.tips) == 32
+    for e in t.tips:
+        f = min(tree.ends, key=lambda x: np.linalg.norm(x.center - e.center))
+        assert np.linalg.norm(f.center - e.center) < 0.2 * e.radius + 0.5 * truth.voxel, e.center
+    root = tree.ends[tree.root]
+    assert root.kind == "cap" and np.linalg.norm(root.center - cap[0]) < 0.05 * cap[2]
+    assert len(tree.paths) == 32 and tree.checks.worst_end_gap < 0.05 and tree.checks.largest_uncovered < 0.5
+    for p in tree.paths:
+        X = p.dense_points
+        keep = t.interior_mask(X) & (np.linalg.norm(X - cap[0], axis=1) > 2 * cap[2])
+        d, r, _, _ = t.nearest(X[keep])
+        assert np.max(d / r, initial=0.0) < 0.05, (p.ends, np.max(d / r))
+
+
+def test_a_vein_tree_with_tips_two_voxels_across_is_refused_where_a_tip_is_missed():
+    """The same tree meshed with its tips 2 voxels across: some of the 32 tips are not found (two: their rings,
+    about six vertices round, point off the tube's axis); the fit is refused, not returned without those
+    vessels, and names a point on the wall of a vessel whose tip was missed (or of its parent)."""
+    from vesselgp.errors import NotTubularError
+    from vesselgp.synthetic_anatomy import vein_tree
+
+    V, F, truth, cap = vein_tree(voxel=0.5)
+    pm = PreparedMesh(V, F)
+    missed = [e for e in truth.truth.tips if min(np.linalg.norm(f.center - e.center) for f in pm.ends) > e.radius]
+    assert 1 <= len(missed) <= 3
+    with pytest.raises(NotTubularError, match=r"without an axis at \(") as ei:
+        vesselgp.fit_vessel_tree(pm)
+    point = np.array([float(x) for x in str(ei.value).split("without an axis at (")[1].split(")")[0].split(",")])
+    _, _, branch, _ = truth.truth.nearest(point[None])
+    assert any(branch[0] in (m.branch, truth.truth.branches[m.branch].parent) for m in missed)
+
+
+def test_a_vein_flattened_two_and_a_half_to_one_is_a_tube():
+    """A capped vein 150 mm long, round (mean radius 13 mm) at its ends and flattened to 2.5:1 in its middle (a
+    vena cava's 37 x 15 mm; its ellipse's axes 1 - 0.6 exp(-(s - 0.5)^2 / 2 0.18^2)), 48 vertices round: it is
+    fitted as a tube, its axis within 2 % of the radius of the true centre line (0.6 % measured), the wall
+    covered but for the ends of the flat section's long axis (its fitted radius, 11.3 there, drops them as
+    outliers: two pieces of 0.24-0.30 radii of wall, 3.4 % of it, under the warning's 0.5)."""
+    import igl
+
+    from vesselgp.synthetic import synthetic_vessel
+
+    u = np.linspace(0.0, 1.0, 50)
+    P = np.c_[150 * u, 12 * np.sin(np.pi * u), 6 * np.sin(2 * np.pi * u)]
+    v = synthetic_vessel(P, radius=13.0, ellipticity=lambda s: 1 - 0.6 * np.exp(-0.5 * ((s - 0.5) / 0.18) ** 2),
+                         ends="capped", n_around=48, units="mm", seed=1)
+    gc = vesselgp.fit_generalized_cylinder(v.V, v.F)
+    T = v.truth.centers
+    d = np.sqrt(igl.point_mesh_squared_distance(gc.dense_points, T, np.c_[np.arange(len(T) - 1),
+                                                                          np.arange(1, len(T))])[0])
+    assert np.max(d) / 13.0 < 0.02
+    assert gc.checks.covered_fraction > 0.95 and gc.checks.largest_uncovered < tol.CHECK_WARN_UNCOVERED and gc.checks.worst_end_gap < 1e-9
+
+
+def test_a_voxel_thoracic_aorta_smoothed_as_the_message_says_fits(tmp_path, capsys):
+    """A thoracic aorta (radius 12.5 to 11 mm, its arch a half turn of 28 mm radius) as a raw voxel staircase
+    at 1 mm voxels: `vesselgp fit` refuses it and names `vesselgp clean --smooth N`; smoothed so (N = 20),
+    it fits, every point of its axis within 3 % of the radius of the true centre line away from its ends."""
+    from vesselgp.cli import main
+    from vesselgp.mesh import clean_mesh
+    from vesselgp.synthetic_anatomy import bezier_between as bz
+    from vesselgp.synthetic_tree import tree_surface
+
+    A, B = np.array([0.0, 0, 60]), np.array([-56.0, 0, 60])
+    control = [bz([0, 0, 0], [0, 0, 1], A, [0, 0, 1], 20, 20), bz(A, [0, 0, 1], B, [0, 0, -1], 37, 37),
+               bz(B, [0, 0, -1], B + [0, 10, -40], [0, 0.2, -1], 15, 15)]
+    t = tree_surface([-1, 0, 1], control, [[12.5, 12.2], [12.2, 11.5], [11.5, 11.0]], voxel=1.0, blend=1.0,
+                     staircase=True)
+    vesselgp.write_mesh(tmp_path / "aorta.ply", t.V, t.F)
+    assert main(["fit", str(tmp_path / "aorta.ply"), "-o", str(tmp_path / "f"), "--no-png"]) == 2
+    assert "vesselgp clean --smooth N" in capsys.readouterr().err
+    V, F, _ = clean_mesh(t.V, t.F, smooth=20)
+    gc = vesselgp.fit_vessel_tree(V, F).paths[0]
+    X = gc.dense_points
+    keep = np.all([np.linalg.norm(X - e.center, axis=1) > 2 * e.radius for e in t.truth.ends], axis=0)
+    d, r, _, _ = t.truth.nearest(X[keep])
+    assert keep.mean() > 0.5 and np.max(d / r) < 0.03, np.max(d / r)

@@ -77,8 +77,8 @@ def test_a_refusal_names_the_option(files, tmp_path, capsys, args, fragment):
 def test_refusals_name_commands_and_options_not_python(tmp_path, capsys):
     """Issue #44, item 8: what a refusal tells a command-line user to do names commands and options: a raw voxel
     staircase is sent to 'vesselgp clean --smooth N' (not vesselgp.clean_mesh), an axis that bends tighter than
-    its radius to --lam 1.0 (not lam=1.0; with it the fit goes through), a root that is no end to --root; no
-    'keyword=' is left in any of them."""
+    its radius to --lam 1.0 or --nodes K (half the fit's; not lam=1.0, n_nodes=K; with the first the fit goes
+    through), a root that is no end to --root; no 'keyword=' is left in any of them."""
     from test_ends_trees import bent_occupancy, voxel_faces
 
     V, F = voxel_faces(bent_occupancy())
@@ -87,7 +87,7 @@ def test_refusals_name_commands_and_options_not_python(tmp_path, capsys):
                              ellipse_angle=0.4, n_around=14, seed=3)  # kinks with the default lam (test_fit)
     vg.write_mesh(tmp_path / "helix.ply", helix.V, helix.F)
     for args, fragment in [(["fit", tmp_path / "stair.ply"], "vesselgp clean --smooth N"),
-                           (["fit", tmp_path / "helix.ply"], "fit a stiffer axis, e.g. --lam 1.0"),
+                           (["fit", tmp_path / "helix.ply"], "fit a stiffer axis, e.g. --lam 1.0 or --nodes "),
                            (["fit", tmp_path / "helix.ply", "--root", 2], "--root 2 is not an end index; use 0 to 1 "
                                                                           "(see vesselgp ends)")]:
         rc, o, e = run([*map(str, args), "-o", tmp_path / "out", "--no-png"], capsys)

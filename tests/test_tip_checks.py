@@ -59,8 +59,8 @@ def test_ring_aspect_at_its_edge(factor, accepted):
 
 
 #: a saddle ring (R cos t, R sin t, c cos 2t) has scatter eigenvalues R^2 / 2, R^2 / 2 and c^2 / 2: the
-#: flatness check refuses c^2 / 2 > ENDS_TIP_RING_FLATNESS R^2 / 2 + H^2 / 12
-FLAT_EDGE = math.sqrt(tol.ENDS_TIP_RING_FLATNESS * R * R + H * H / 6.0)
+#: flatness check refuses c^2 / 2 > ENDS_TIP_RING_FLATNESS R^2 / 2 + (ENDS_TIP_BAND_EDGES H)^2 / 12
+FLAT_EDGE = math.sqrt(tol.ENDS_TIP_RING_FLATNESS * R * R + (tol.ENDS_TIP_BAND_EDGES * H) ** 2 / 6.0)
 
 
 @pytest.mark.parametrize("factor, accepted", [(0.97, True), (1.03, False)])
@@ -110,7 +110,7 @@ def _tube_verdict(speed=1.0, offsets=None, radius=None, ripple=None, dome_bump=N
     valid = rg["n"] >= tol.ENDS_MIN_RING
     valid[:1] = False
     fit = _axis_fit(rg["d"][tube], rg["C"][tube], rg["n"][tube], DSTAR)
-    return fit, _is_tube(rg, valid, tube, fit, R, DSTAR)
+    return fit, _is_tube(rg, valid, tube, fit, R, DSTAR, H)
 
 
 def test_the_exact_hemisphere_on_its_tube_passes_every_check():
@@ -130,15 +130,17 @@ def test_ring_speed_at_its_edges(speed, accepted):
 @pytest.mark.parametrize("factor, accepted", [(0.97, True), (1.03, False)])
 def test_ring_line_at_its_edge(factor, accepted):
     """Sideways offsets +e, -e, -e, +e, ... are orthogonal to a constant and to a linear trend over
-    equally spaced rings (in blocks of four), so the line fit keeps them whole: rms residual e."""
+    equally spaced rings (in blocks of four), so the line fit keeps them whole: rms residual e; refused when
+    e > ENDS_TIP_LINE_TOL R + ENDS_TIP_EDGE_SLACK H."""
     k = NTUBE
-    e = factor * tol.ENDS_TIP_LINE_TOL * R
+    edge = tol.ENDS_TIP_LINE_TOL * R + tol.ENDS_TIP_EDGE_SLACK * H
+    e = factor * edge
     pattern = np.resize([1.0, -1.0, -1.0, 1.0], k)
     if k % 4:  # an incomplete block would leave a trend: fill the rest with zero offsets
         pattern[k - k % 4:] = 0.0
         e *= math.sqrt(k / (k - k % 4))
     fit, ok = _tube_verdict(offsets=e * pattern)
-    assert fit[3] == pytest.approx(factor * tol.ENDS_TIP_LINE_TOL * R, rel=1e-9)
+    assert fit[3] == pytest.approx(factor * edge, rel=1e-9)
     assert ok is accepted
 
 
@@ -154,10 +156,10 @@ def test_tube_ring_radius_at_its_edge(factor, accepted, sign):
 @pytest.mark.parametrize("factor, accepted", [(0.97, True), (1.03, False)])
 def test_ring_roundness_at_its_edge(factor, accepted):
     """r = R (1 + e cos 3t): mean R, standard deviation R e / sqrt 2, centroid and scatter those of a
-    circle (three-fold symmetric); refused when e / sqrt 2 > ENDS_TIP_ROUND_TOL."""
+    circle (three-fold symmetric); refused when R e / sqrt 2 > ENDS_TIP_ROUND_TOL R + ENDS_TIP_EDGE_SLACK H."""
     k = NTUBE
     ripple = np.zeros(k)
-    ripple[1] = factor * math.sqrt(2.0) * tol.ENDS_TIP_ROUND_TOL
+    ripple[1] = factor * math.sqrt(2.0) * (tol.ENDS_TIP_ROUND_TOL + tol.ENDS_TIP_EDGE_SLACK * H / R)
     assert _tube_verdict(ripple=ripple)[1] is accepted
 
 

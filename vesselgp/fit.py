@@ -526,7 +526,7 @@ def _checked(gc, pm, e0, e1, whole, rscale):
     and, when it covers the whole mesh, its wall covered: :func:`vesselgp.checks.cylinder_checks`), with its
     checks; a fit stopped at the iteration cap is said so once (WARNING), with what the checks found."""
     check_axis_inside(pm.V, pm.F, gc.s, gc.centers, gc.radii, winding=pm.winding)
-    check_cylinder_bend(gc, pm.winding.scale)
+    check_cylinder_bend(gc, pm.winding.scale, nodes=True)
     gc = replace(gc, checks=cylinder_checks(gc, pm, e0, e1, whole=whole))
     if not gc.converged:
         log.warning("the generalized-cylinder fit stopped at %d iterations, its axis still moving %.3g radii per "
@@ -536,13 +536,15 @@ def _checked(gc, pm, e0, e1, whole, rscale):
     return gc
 
 
-def check_cylinder_bend(gc, scale, skip_start=0.0, skip=None):
+def check_cylinder_bend(gc, scale, skip_start=0.0, skip=None, nodes=False):
     """:func:`vesselgp.inside.check_axis_bend` of a fitted cylinder's dense axis (mesh size ``scale``),
     past the first ``skip_start`` of its arc length (a tree branch's junction zone, led in along the
     lumen's centre line: anatomy, not the fit) and outside the ``skip`` intervals of ``s`` (its
-    medial zones, the centre line too)."""
+    medial zones, the centre line too); with ``nodes``, the refusal also names fewer axis nodes
+    (``n_nodes=``, half the fit's) as a stiffer axis (a single vessel's fit takes them)."""
     check_axis_bend(gc.dense_s, gc.length, gc.dense_frames[:, 0], gc.radius_at(gc.dense_s),
-                    points=gc.dense_points, scale=scale, skip_start=skip_start, skip=skip)
+                    points=gc.dense_points, scale=scale, skip_start=skip_start, skip=skip,
+                    fewer_nodes=max(len(gc.s) // 2, 4) if nodes else None)
 
 
 def cylinder_sharp_bends(gc, skip_start=0.0, skip=None):

@@ -173,7 +173,7 @@ def sharp_bends(s, length, tangents, radii, *, ends_margin=None, skip_start=0.0,
 
 
 def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends_margin=None, skip_start=0.0,
-                    skip=None):
+                    skip=None, fewer_nodes=None):
     """Raise :class:`NotTubularError` where the axis bends tighter than its radius.
 
     The curvature is ``|dT/ds|`` of the unit tangents by central differences; the
@@ -204,6 +204,8 @@ def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends
     skip : (z, 2) float64, optional
         Intervals of ``s`` not checked either (a tree branch's medial zones, where the axis is
         the lumen's centre line: :attr:`vesselgp.VesselTree.medial_zones`).
+    fewer_nodes : int, optional
+        A number of axis nodes to name as a stiffer fit's (``n_nodes=``) in the refusal.
 
     Raises
     ------
@@ -236,5 +238,6 @@ def check_axis_bend(s, length, tangents, radii, *, points=None, scale=None, ends
         f"the fitted axis bends tighter than its radius {where}: curvature x radius = {kr[k]:.2f} "
         f"(a tube needs less than {tol.GC_MAX_BEND:g}; its sections would overlap); likely too few vertices "
         "around a non-circular section (remesh finer, e.g. pymeshlab meshing_isotropic_explicit_remeshing, "
-        "or fit a stiffer axis, e.g. lam=1.0), or a U-turn tighter than the radius"
+        f"or fit a stiffer axis, e.g. lam=1.0{'' if fewer_nodes is None else f' or n_nodes={fewer_nodes}'}), or a "
+        "U-turn tighter than the radius"
     )

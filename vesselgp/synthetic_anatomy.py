@@ -20,9 +20,9 @@ from __future__ import annotations
 import numpy as np
 
 from .mesh import mesh_topology
-from .synthetic_tree import tree_surface
+from .synthetic_tree import synthetic_tree, tree_surface
 
-__all__ = ["bezier_between", "capped_arch", "clip_and_cap", "siphon_tree"]
+__all__ = ["bezier_between", "capped_arch", "clip_and_cap", "siphon_tree", "vein_tree"]
 
 
 def bezier_between(P0, d0, P3, d1, k0, k1):
@@ -211,3 +211,29 @@ def capped_arch(voxel=1.4, blend=2.0, sinus=0.45):
     V, F, q = clip_and_cap(V, F, np.zeros(3), -z, 10.6, behind=1.0 / 10.6)  # the descending aorta's open end,
     caps.append((q, -z, 10.6))  # cut 1 mm up its tube
     return V, F, truth, caps
+
+
+def vein_tree(voxel=0.35, seed=0):
+    """A closed vein tree of 32 small rounded blind ends over five generations, its root capped flat.
+
+    The shape of a portal vein segmented from CT (issue #44: about 40 rounded blind ends a few voxels
+    across; 6 of them were found and the fit was refused): a full binary tree of five levels
+    (:func:`vesselgp.synthetic_tree.synthetic_tree`: root radius 3 mm and 30 mm long, each child 0.8 of its
+    parent's end radius and 0.75 of its length, leaving at 55 degrees), its tips of radius 0.52 mm, meshed
+    by marching cubes at ``voxel`` (0.35: the tips 3 voxels across; 0.5: 2), and its root cut 0.5 mm up and
+    capped flat, so that the surface is closed.
+
+    Returns
+    -------
+    V : (n, 3) float64
+    F : (m, 3) int64
+    truth : SyntheticTree
+        The tree before capping: its 63 branches' exact centre lines and radii, its 32 rounded tips.
+    cap : (centre (3,), outward direction (3,), radius)
+        The root's cap.
+    """
+    truth = synthetic_tree(levels=5, radius=3.0, voxel=voxel, length=30.0, length_ratio=0.75,
+                           branch_angle_deg=55.0, seed=seed, blend=0.2 / 3.0, min_radius_voxels=1.0)
+    down = np.array([0.0, 0.0, -1.0])
+    V, F, q = clip_and_cap(truth.V, truth.F, np.zeros(3), down, 3.0, behind=0.5 / 3.0)
+    return V, F, truth, (q, down, float(truth.truth.branches[0].radius([0.0])[0]))

@@ -679,7 +679,7 @@ def _ends_and_paths(branches, children):
     return tuple(ends), tuple(paths)
 
 
-def _check_layout(branches, voxel, band, blend):
+def _check_layout(branches, voxel, band, blend, min_radius_voxels=None):
     """Raise :class:`OptionError` if the tubes would not make a clean tree surface.
 
     Tubes must be at least 2.5 voxels thick, bend gently (unique foot points within the
@@ -687,9 +687,10 @@ def _check_layout(branches, voxel, band, blend):
     from the junctions (so the surface there is the single tube's, exactly).
     """
     rmin = min(float(b.radii.min()) for b in branches)
-    if rmin < tol.TREE_MIN_RADIUS_VOXELS * voxel:
-        raise OptionError(f"the thinnest tube (radius {rmin:.3g}) is under {tol.TREE_MIN_RADIUS_VOXELS} voxels; "
-                          f"use a voxel below {rmin / tol.TREE_MIN_RADIUS_VOXELS:.3g} or fewer levels")
+    least = tol.TREE_MIN_RADIUS_VOXELS if min_radius_voxels is None else float(min_radius_voxels)
+    if rmin < least * voxel:
+        raise OptionError(f"the thinnest tube (radius {rmin:.3g}) is under {least:g} voxels; "
+                          f"use a voxel below {rmin / least:.3g} or fewer levels")
     for k, b in enumerate(branches):
         d1, d2 = _eval(b._a, b.t, 1), _eval(b._a, b.t, 2)
         kappa = np.linalg.norm(np.cross(d1, d2), axis=1) / np.linalg.norm(d1, axis=1) ** 3
@@ -971,7 +972,7 @@ def _closed_volume(V, F, loop):
 
 def synthetic_tree(levels=2, *, parents=None, radius=3.0, taper=0.8, tube_taper=0.9,
                    branch_angle_deg=40.0, length=40.0, length_ratio=0.8, voxel=0.4, blend=0.25,
-                   seed=0, staircase=False, target_vertices=None):
+                   seed=0, staircase=False, target_vertices=None, min_radius_voxels=None):
     """A vessel tree: union of tapered tubes about exact Bezier centre lines, root cut open.
 
     Parameters
@@ -1003,6 +1004,9 @@ def synthetic_tree(levels=2, *, parents=None, radius=3.0, taper=0.8, tube_taper=
         Return the voxel boundary (axis-aligned terraces) instead of the smooth surface.
     target_vertices : int, optional
         Choose the voxel so the mesh has about this many vertices (within ~10 %).
+    min_radius_voxels : float, optional
+        The thinnest tube allowed, in voxels (default ``tolerances.TREE_MIN_RADIUS_VOXELS``, 2.5; a vein
+        tree's tips a few voxels across, as segmentations make them, need less).
 
     Returns
     -------
@@ -1012,7 +1016,7 @@ def synthetic_tree(levels=2, *, parents=None, radius=3.0, taper=0.8, tube_taper=
     ------
     OptionError
         A parameter out of range, tubes that collide, bend too sharply, reach below the root
-        plane or are thinner than 2.5 voxels.
+        plane or are thinner than ``min_radius_voxels``.
     TreeDependencyError
         scikit-image is missing (``pip install vesselgp[trees]``); the staircase variant
         does not need it.
@@ -1033,11 +1037,12 @@ def synthetic_tree(levels=2, *, parents=None, radius=3.0, taper=0.8, tube_taper=
     rng = np.random.default_rng(seed)
     ctrl, radii, level = _layout(parents, children, p, rng)
     return tree_surface(parents, ctrl, radii, voxel=p["voxel"], blend=p["blend"] * p["radius"],
-                        target_vertices=target_vertices, staircase=staircase, seed=seed)
+                        target_vertices=target_vertices, staircase=staircase, seed=seed,
+                        min_radius_voxels=min_radius_voxels)
 
 
 def tree_surface(parents, control, radii, *, voxel, blend, target_vertices=None, staircase=False, seed=0,
-                 bulges=None):
+                 bulges=None, min_radius_voxels=None):
     """The tree surface of given Bezier branches (the meshing of :func:`synthetic_tree`).
 
     Parameters
@@ -1059,6 +1064,8 @@ def tree_surface(parents, control, radii, *, voxel, blend, target_vertices=None,
         Recorded in the result.
     bulges : dict of int to sequence of (t0, width, amplitude), optional
         Gaussian bulges of a branch's radius (:class:`TreeBranch`), by branch index.
+    min_radius_voxels : float, optional
+        As for :func:`synthetic_tree`.
 
     Returns
     -------
@@ -1075,7 +1082,7 @@ def tree_surface(parents, control, radii, *, voxel, blend, target_vertices=None,
                       root_plane=np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0]]))
     h = float(voxel) if target_vertices is None else _voxel_for(branches, target_vertices)
     band = tol.TREE_BAND_VOXELS * h + truth.blend
-    _check_layout(branches, h, band, truth.blend)
+    _check_layout(branches, h, band, truth.blend, min_radius_voxels)
     grid = _grid(branches, h, band + h, centred=staircase)
     V, F = _surface(truth, grid, band, staircase)
     V, F, loop = _finish(V, F, truth)

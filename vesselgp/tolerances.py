@@ -462,8 +462,15 @@ ENDS_TIP_SPEED_TOL = 0.35
 ENDS_TIP_LINE_TOL = 0.25
 #: ... ring radii (tube and dome, the tip's distance from the centre) within this fraction of R ...
 ENDS_TIP_RADIUS_TOL = 0.25
-#: ... and rings round: standard deviation of the distance to their centroid below this fraction.
+#: ... and rings round: standard deviation of the distance to their centroid below this fraction ...
 ENDS_TIP_ROUND_TOL = 0.25
+#: ... the line's and the roundness's each plus this many median edges (a tip a few edges across has
+#: rings as ragged as its edges: a vein tree's tips 3 voxels across were lost at 0.26 and 0.30).
+ENDS_TIP_EDGE_SLACK = 0.1
+#: A ring (a band of geodesic distance one median edge wide) holds vertices up to this many median edges
+#: apart along the tube: its thickness's variance is (this h)^2 / 12 (1: 0.003-0.008 over the flatness
+#: on the rings of a vein's tip 3 voxels across).
+ENDS_TIP_BAND_EDGES = 1.5
 #: Rounded tips: a dome (within ENDS_TIP_DOME_TO of the equator's distance) whose best-fit sphere
 #: has radius R within ENDS_TIP_RADIUS_TOL is a hemisphere, centred at the sphere's centre; other
 #: domes (flat, pointed, lobed, oblique: the pulmonary trunk's at its valve is 0.16 R rms from its
