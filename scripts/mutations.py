@@ -25,10 +25,46 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    "mouth_unbounded": (
+        "vesselgp/checks.py",
+        "                D <= tol.CHECK_ZONE_REACH * np.maximum(R, rp))",
+        "                D <= np.inf)",
+        ["tests/test_checks.py", "tests/test_real_trees.py::test_the_intracranial_sac_is_found_and_its_wall_described_by_it"],
+    ),
+    "sac_wall_not_exempt": (
+        "vesselgp/checks.py",
+        "        exempt[bl.wall] = True",
+        "        pass",
+        ["tests/test_real_trees.py::test_the_intracranial_sac_is_found_and_its_wall_described_by_it"],
+    ),
+    "no_dome_only_sacs": (
+        "vesselgp/mesh/_ends_tips.py",
+        "    if not _is_dome(rg, valid, fit, R, dstar, h):\n        return None",
+        "    if True:\n        return None",
+        ["tests/test_real_trees.py::test_the_intracranial_sac_is_found_and_its_wall_described_by_it"],
+    ),
+    "dome_only_checks_roundness": (
+        "vesselgp/mesh/_ends_tips.py",
+        "    if not _is_dome(rg, valid, fit, R, dstar, h):\n        return None",
+        "    if not _is_tube(rg, valid, np.flatnonzero(valid & (rg['d'] >= dstar)), fit, R, dstar, h):\n        return None",
+        ["tests/test_tip_checks.py", "tests/test_real_trees.py::test_the_intracranial_sac_is_found_and_its_wall_described_by_it"],
+    ),
+    "sac_neck_at_the_pole": (
+        "vesselgp/bulges.py",
+        "    return wall, V[wall[inner]].mean(axis=0) if inner.any() else V[pole].copy()",
+        "    return wall, V[pole].copy()",
+        ["tests/test_sacs.py"],
+    ),
+    "sac_wall_any_distance": (
+        "vesselgp/bulges.py",
+        "    beyond = d > (1.0 + tol.CHECK_COVER_TOLERANCE) * r[i]",
+        "    beyond = d > 1.0 * r[i]",
+        ["tests/test_sacs.py"],
+    ),
     "tip_edge_slack_off": (
         "vesselgp/mesh/_ends_tips.py",
-        "    slack = tol.ENDS_TIP_EDGE_SLACK * h",
-        "    slack = 0.0 * h",
+        "    return tol.ENDS_TIP_EDGE_SLACK * h",
+        "    return 0.0 * h",
         ["tests/test_tip_checks.py", "tests/test_anatomy.py"],
     ),
     "tip_band_one_edge_thick": (

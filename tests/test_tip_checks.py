@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from vesselgp import tolerances as tol
-from vesselgp.mesh._ends_tips import (_axis_fit, _circles, _crossing, _cylinder_axis, _is_tube, _on_axis,
-                                      _rings, _walls_across_one_axis)
+from vesselgp.mesh._ends_tips import (_axis_fit, _circles, _crossing, _cylinder_axis, _is_dome, _is_tube,
+                                      _on_axis, _rings, _walls_across_one_axis)
 
 R = 1.0
 H = 0.05  # band width (the median edge): rings one band apart
@@ -81,9 +81,10 @@ NBANDS = int(round((DSTAR + R) / H))  # the dome and one radius of tube, a band 
 NTUBE = int(np.sum((np.arange(NBANDS) + 0.5) * H >= DSTAR))  # the tube's rings
 
 
-def _tube_verdict(speed=1.0, offsets=None, radius=None, ripple=None, dome_bump=None):
+def _tube_verdict(speed=1.0, offsets=None, radius=None, ripple=None, dome_bump=None, check=_is_tube):
     """Rings of a hemisphere of radius R (the dome, R sin(d / R)) and of the tube past its equator
-    (one radius of it), built exactly, with one property changed; the verdict of ``_is_tube``.
+    (one radius of it), built exactly, with one property changed; the verdict of ``check`` (``_is_tube``,
+    or ``_is_dome``: the same without the tube rings' radius and roundness).
 
     speed : the tube rings' centres move down the axis by ``speed`` per unit geodesic distance
     offsets : (k,) sideways offset of each tube ring's centre (from the line)
@@ -110,6 +111,8 @@ def _tube_verdict(speed=1.0, offsets=None, radius=None, ripple=None, dome_bump=N
     valid = rg["n"] >= tol.ENDS_MIN_RING
     valid[:1] = False
     fit = _axis_fit(rg["d"][tube], rg["C"][tube], rg["n"][tube], DSTAR)
+    if check is _is_dome:
+        return fit, _is_dome(rg, valid, fit, R, DSTAR, H)
     return fit, _is_tube(rg, valid, tube, fit, R, DSTAR, H)
 
 
@@ -169,6 +172,28 @@ def test_dome_profile_at_its_edge(factor, accepted, sign):
     """The dome's rings (from ENDS_TIP_DOME_FROM to ENDS_TIP_DOME_TO of the equator's distance) off
     R sin(d / R) by that fraction of R."""
     assert _tube_verdict(dome_bump=sign * factor * tol.ENDS_TIP_RADIUS_TOL * R)[1] is accepted
+
+
+@pytest.mark.parametrize("body", ["ripple", "widening"])
+def test_a_dome_on_a_body_that_is_no_round_tube_is_a_dome_only(body):
+    """Issue #44: a sac's dome on a body that is no round tube (lobed: r = R (1 + e cos 3t) with e twice the
+    roundness limit; or widening to 1.5 R within a radius past the equator) fails the tube test but passes
+    the dome test (_is_dome: the line and the dome's profile only), which a sac's dome takes."""
+    k = NTUBE
+    kw = ({"ripple": np.full(k, 2 * math.sqrt(2.0) * tol.ENDS_TIP_ROUND_TOL)} if body == "ripple" else
+          {"radius": R * (1.0 + 0.5 * np.arange(1, k + 1) / k)})
+    assert _tube_verdict(**kw)[1] is False
+    assert _tube_verdict(**kw, check=_is_dome)[1] is True
+
+
+@pytest.mark.parametrize("factor, accepted", [(0.96, True), (1.04, False)])
+def test_the_dome_only_test_keeps_the_dome_profile_and_line_at_their_edges(factor, accepted):
+    """_is_dome refuses what _is_tube refuses on the dome and the line: the dome's rings off R sin(d / R) by
+    (1.04) ENDS_TIP_RADIUS_TOL R, and tube ring centres moving at 1 +- (1.04) ENDS_TIP_SPEED_TOL, on a lobed
+    body that alone would pass as a dome."""
+    ripple = np.full(NTUBE, 2 * math.sqrt(2.0) * tol.ENDS_TIP_ROUND_TOL)
+    assert _tube_verdict(ripple=ripple, dome_bump=factor * tol.ENDS_TIP_RADIUS_TOL * R, check=_is_dome)[1] is accepted
+    assert _tube_verdict(ripple=ripple, speed=1.0 + factor * tol.ENDS_TIP_SPEED_TOL, check=_is_dome)[1] is accepted
 
 
 # --------------------------------------------------------------------------- #

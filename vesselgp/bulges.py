@@ -19,15 +19,17 @@ tip's region).
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from . import tolerances as tol
 from ._arrays import true_runs
 
-__all__ = ["Bulge", "bulges", "tree_bulges"]
+__all__ = ["Bulge", "bulges", "sac_wall", "tree_bulges"]
 
 
 @dataclass(frozen=True)
@@ -50,6 +52,9 @@ class Bulge:
         :attr:`vesselgp.PreparedMesh.sacs`), the dome's radius.
     neighbour_radius : float
         The lumen's radius beside it (the module notes).
+    wall : (k,) int64
+        A blind sac's wall beyond the paths' tubes (mesh vertex ids, :func:`sac_wall`): described by
+        the sac, not by an axis (:mod:`vesselgp.checks`). Empty for a widening of the path itself.
     """
 
     paths: tuple
@@ -58,6 +63,7 @@ class Bulge:
     peak: np.ndarray
     peak_radius: float
     neighbour_radius: float
+    wall: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64), repr=False)
 
     @property
     def ratio(self):
@@ -126,24 +132,48 @@ def bulges(s, radius, length, *, reach, margin=(0.0, 0.0)):
     return np.array(out, np.float64).reshape(-1, 5)
 
 
-def _sac_place(paths, c, out, rs):
-    """(path, dense sample) where a sac's axis, from its dome's centre ``c`` inwards (against the unit
-    ``out``), passes closest to the first path it comes within ``rs`` of; the sample nearest to ``c``
-    when it comes within ``rs`` of none."""
-    best = None
-    for k, p in enumerate(paths):
-        X = p.dense_points - c
-        t = np.maximum(X @ -out, 0.0)
-        perp = np.linalg.norm(X + np.outer(t, out), axis=1)
-        near = np.flatnonzero(perp <= rs)
-        if len(near):
-            i = int(near[np.argmin(perp[near])])
-            if best is None or t[i] < best[0]:
-                best = (t[i], k, i)
-    if best is not None:
-        return best[1], best[2]
-    return min(((k, int(np.argmin(np.linalg.norm(p.dense_points - c, axis=1)))) for k, p in enumerate(paths)),
-               key=lambda ki: np.linalg.norm(paths[ki[0]].dense_points[ki[1]] - c))
+def sac_wall(V, adjacency, pole, paths):
+    """A blind sac's wall: the wall no path's tube holds that its dome's pole reaches, and its neck.
+
+    A wall vertex is beyond the paths' tubes when its distance to the nearest dense path sample is more
+    than ``1 + tolerances.CHECK_COVER_TOLERANCE`` times the fitted radius there (the wall the coverage
+    check of :mod:`vesselgp.checks` would not find described). The sac's wall is the piece of such
+    vertices, connected on the mesh, that holds the pole; its rim (the piece's vertices next to wall a
+    tube holds) is the neck.
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    adjacency : (n, n) sparse
+        The mesh's vertex adjacency.
+    pole : int
+        The vertex at the dome's pole.
+    paths : sequence of GeneralizedCylinder
+
+    Returns
+    -------
+    wall : (k,) int64
+        The sac's wall vertices (empty when the pole lies within a tube: a sac no deeper than that).
+    neck : (3,) float64
+        The centroid of the rim (the pole itself when ``wall`` is empty).
+    """
+    P = np.vstack([p.dense_points for p in paths])
+    r = np.concatenate([p.radius_at(p.dense_s) for p in paths])
+    d, i = cKDTree(P).query(V)
+    beyond = d > (1.0 + tol.CHECK_COVER_TOLERANCE) * r[i]
+    if not beyond[pole]:
+        return np.zeros(0, np.int64), V[pole].copy()
+    ids = np.flatnonzero(beyond)
+    _, lab = connected_components(adjacency[ids][:, ids], directed=False)
+    wall = ids[lab == lab[np.searchsorted(ids, pole)]]
+    inner = np.asarray(adjacency[wall][:, np.flatnonzero(~beyond)].sum(axis=1)).ravel() > 0
+    return wall, V[wall[inner]].mean(axis=0) if inner.any() else V[pole].copy()
+
+
+def _nearest_sample(paths, x):
+    """(path, dense sample) nearest to the point ``x`` (3,)."""
+    return min(((k, int(np.argmin(np.linalg.norm(p.dense_points - x, axis=1)))) for k, p in enumerate(paths)),
+               key=lambda ki: np.linalg.norm(paths[ki[0]].dense_points[ki[1]] - x))
 
 
 def _stretch_within(path, s_range, c, reach):
@@ -152,7 +182,7 @@ def _stretch_within(path, s_range, c, reach):
     return bool(m.any() and np.min(np.linalg.norm(path.dense_points[m] - c, axis=1)) <= reach)
 
 
-def tree_bulges(paths, sacs=()):
+def tree_bulges(paths, sacs=(), mesh=None):
     """The bulges of a tree's paths, one per place (a bulge on a shared trunk is on several paths).
 
     Parameters
@@ -163,11 +193,14 @@ def tree_bulges(paths, sacs=()):
     sacs : sequence of ((3,) float64, (3,) float64, float), optional
         Blind sacs found by :func:`vesselgp.vessel_ends` (:attr:`vesselgp.PreparedMesh.sacs`:
         domes that are not ends), as their dome's centre, outward direction and radius. A sac's
-        place on the paths is where its axis, followed inwards from the dome, passes within its
-        radius of a path (the neck; else the path point nearest to the dome). Where no path's
-        bulge already reaches within the sac's diameter of that place (a path through the neck),
-        the sac is a bulge of that path there: ``peak_radius`` the dome's radius,
-        ``neighbour_radius`` the path's fitted radius there, ``s_range`` the sac's diameter about it.
+        place on the paths is the path sample nearest to its neck (:func:`sac_wall`, from the
+        vertex of ``mesh`` nearest to the dome's pole). Where a path's bulge already reaches within
+        the sac's diameter of that place (a path through the neck), that bulge reports the sac and
+        takes its wall; otherwise the sac is a bulge of that path there: ``peak_radius`` the dome's
+        radius, ``neighbour_radius`` the path's fitted radius there, ``s_range`` the sac's diameter
+        about it.
+    mesh : ((n, 3) float64, (n, n) sparse), optional
+        The vertices and vertex adjacency of the mesh; needed when ``sacs`` is not empty.
 
     Returns
     -------
@@ -186,13 +219,20 @@ def tree_bulges(paths, sacs=()):
                 found.append(Bulge((k,), np.array([s0, s1]), float(sp), peak, float(rp), float(rb)))
             else:
                 found[same] = replace(found[same], paths=found[same].paths + (k,))
+    if len(sacs) and mesh is None:
+        raise ValueError("tree_bulges: sacs are placed on the mesh; pass mesh=(V, adjacency)")
     for c, out, rs in sacs:
-        k, i = _sac_place(paths, c, out, rs)
+        V, adjacency = mesh
+        wall, neck = sac_wall(V, adjacency, int(np.argmin(np.linalg.norm(V - (c + rs * out), axis=1))), paths)
+        k, i = _nearest_sample(paths, neck)
         p = paths[k]
-        if any(_stretch_within(paths[b.paths[0]], b.s_range, p.dense_points[i], 2.0 * rs) for b in found):
-            continue  # a path passes through its neck: its own bulge there reports it
+        at = next((j for j, b in enumerate(found)
+                   if _stretch_within(paths[b.paths[0]], b.s_range, p.dense_points[i], 2.0 * rs)), None)
+        if at is not None:  # a path passes through its neck: its own bulge there reports it
+            found[at] = replace(found[at], wall=np.union1d(found[at].wall, wall))
+            continue
         sp = float(p.dense_s[i])
         half = rs / p.length
         found.append(Bulge((k,), np.array([max(sp - half, 0.0), min(sp + half, 1.0)]), sp, p.dense_points[i],
-                           float(rs), float(p.radius_at([sp])[0])))
+                           float(rs), float(p.radius_at([sp])[0]), wall))
     return tuple(found)

@@ -409,7 +409,8 @@ def run_fit(mesh, out, *, ends=None, root=None, n_nodes=None, lam=None, axis_for
     t0 = time.perf_counter()
     gc = fit_generalized_cylinder(pm, ends=ends, n_nodes=n_nodes, lam=lam)
     dt = time.perf_counter() - t0
-    d = {**gc_to_dict(gc), **uinfo, "bulges": bulges_to_dicts(tree_bulges((gc,), pm.sacs))}
+    found = tree_bulges((gc,), pm.sacs, (pm.V, pm.topology.adjacency))
+    d = {**gc_to_dict(gc), **uinfo, "bulges": bulges_to_dicts(found)}
     d.update(bbox_diagonal=float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))), input=str(mesh), time_s=dt)
     write_json(out("axis.json"), d)
     fr = gc.frames

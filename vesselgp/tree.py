@@ -559,7 +559,8 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     tree = VesselTree(ends=ends, root=root, junctions=junctions, junction_branch=junction_branch,
                       branches=tuple(branches), parent=br.parent, paths=tuple(paths),
                       path_branches=tuple(path_branches), vertex_branch=br.vertex_branch,
-                      junction_zone=zone, medial_zones=medial, bulges=tree_bulges(paths, pm.sacs),
+                      junction_zone=zone, medial_zones=medial,
+                      bulges=tree_bulges(paths, pm.sacs, (pm.V, pm.topology.adjacency)),
                       branch_fit=tuple(how))
     balls = (np.vstack(br.centerlines.points), np.concatenate(br.centerlines.radius))  # the lumen's spheres
     tree = replace(tree, checks=fit_checks(tree, pm, balls))  # every end reached, the wall covered (or raise)
@@ -590,7 +591,8 @@ def _one_path(pm, root, gc):
     return VesselTree(ends=pm.ends, root=root, junctions=np.zeros((0, 3)), junction_branch=np.zeros(0, np.int64),
                       branches=(gc,), parent=np.array([-1], np.int64), paths=(gc,), path_branches=((0,),),
                       vertex_branch=np.zeros(len(pm.V), np.int64), junction_zone=np.zeros(1),
-                      medial_zones=(np.zeros((0, 2)),), bulges=tree_bulges((gc,), pm.sacs),
+                      medial_zones=(np.zeros((0, 2)),),
+                      bulges=tree_bulges((gc,), pm.sacs, (pm.V, pm.topology.adjacency)),
                       branch_fit=("converged" if gc.converged else "stopped",), checks=gc.checks)
 
 

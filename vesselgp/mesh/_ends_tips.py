@@ -247,23 +247,26 @@ def _tip(V, faces, G, p, pers, h):
     """The rounded end at candidate ``p`` of persistence ``pers``, or None (see the module doc).
 
     The rings are followed at most ``tolerances.ENDS_TIP_REACH`` times the
-    persistence away (a dome and its tube lie within the maximum's basin).
+    persistence away (a dome and its tube lie within the maximum's basin). A dome that closes in
+    like a hemisphere on rings that are no round tube, from the candidate or from its pole, is
+    returned as a record with ``tube`` False (a sac's dome, :func:`_dome_only`) when no tip is found.
     """
     cap = max(tol.ENDS_TIP_REACH * pers, tol.ENDS_TIP_START_EDGES * h)
     L = tol.ENDS_TIP_START_EDGES * h
-    recentred = False
+    recentred, dome = False, None
     while True:
         L = min(L, cap)
         g = dijkstra(G, indices=int(p), limit=L)
         res = _hemisphere(V, faces, p, g, h, L)
-        if isinstance(res, tuple):  # ("pole", q): the rings' axis meets the dome at q, not at p
+        if isinstance(res, tuple):  # ("pole", q, dome): the rings' axis meets the dome at q, not at p
+            dome = res[2] or dome  # a dome on no round tube, from this try or the first
             if recentred or res[1] == p:
-                return None
+                return dome
             log.debug("tip candidate %d: retried from the dome's pole %d", p, res[1])
             p, recentred = res[1], True
             continue
         if res != "more":
-            return res
+            return res or dome
         if L >= cap or _explored_all(G, g):
             return None
         L *= tol.ENDS_TIP_GROWTH
@@ -340,7 +343,7 @@ def _hemisphere(V, faces, p, g, h, L):
     if fit is None:
         return None
     if not _is_tube(rg, valid, tube, fit, R, dstar, h) or not _circles(rg["eig"][tube], h):
-        return _pole(V, g, fit, R, dstar)
+        return _pole(V, g, fit, R, dstar, _dome_only(V, rg, valid, p, g, fit, R, dstar, h))
     dome = np.flatnonzero(g <= tol.ENDS_TIP_DOME_TO * dstar)
     center, Rs, rms = _sphere_fit(V[dome])
     F, N, A = faces
@@ -364,11 +367,34 @@ def _hemisphere(V, faces, p, g, h, L):
         return _pole(V, g, fit, R, dstar)  # not on the tube's axis seen from the dome: retry from its pole
     ring = np.flatnonzero(rg["band"] == tube[0])
     region = np.flatnonzero(g <= tol.ENDS_ROUNDED_REGION * R)
-    return {"tip": int(p), "ring": ring, "region": region, "center": center, "direction": axis, "radius": R}
+    return {"tip": int(p), "ring": ring, "region": region, "center": center, "direction": axis, "radius": R,
+            "tube": True}
 
 
-def _pole(V, g, fit, R, dstar):
-    """``("pole", q)``: the explored vertex nearest to where the rings' axis leaves the dome.
+def _dome_only(V, rg, valid, p, g, fit, R, dstar, h):
+    """A dome on rings that are no round tube (a sac's: its body is no tube, and may be oval or lobed),
+    as a record like a tip's with ``tube`` False, or None.
+
+    The rings' centroids run down a line at about unit speed and the dome's rings close in like a
+    hemisphere's (the first and last checks of :func:`_is_tube`); the rings past the equator need
+    not be round. Its centre is a radius in from the tip on the rings' axis, its direction that axis.
+    Such a dome is never a vessel's end: :func:`vesselgp.mesh.ends._without_sacs` takes it for a blind
+    sac when it is wider than every cut end, and drops it otherwise (issue #44: the gmsh intracranial
+    aneurysm's sac, 24 mm deep, oval behind its dome, was not found and its wall had no description).
+    """
+    if not _is_dome(rg, valid, fit, R, dstar, h):
+        return None
+    c0, out = fit[0], fit[1]
+    center = c0 + ((V[p] - c0) @ out - R) * out
+    ring = np.flatnonzero(rg["band"] == np.flatnonzero(valid & (rg["d"] >= dstar))[0])
+    region = np.flatnonzero(g <= tol.ENDS_ROUNDED_REGION * R)
+    return {"tip": int(p), "ring": ring, "region": region, "center": center, "direction": out, "radius": R,
+            "tube": False}
+
+
+def _pole(V, g, fit, R, dstar, dome=None):
+    """``("pole", q, dome)``: the explored vertex nearest to where the rings' axis leaves the dome
+    (and the record of :func:`_dome_only`, or None).
 
     The maximum of the geodesic distance from the other ends lies off the dome's
     pole on a side branch leaving its vessel at a wide angle; its rings are then
@@ -377,7 +403,7 @@ def _pole(V, g, fit, R, dstar):
     c, out, _, _ = fit
     P = c + R * out  # ``c`` is the ring centroid at the equator's distance: the dome's centre
     near = np.flatnonzero(np.isfinite(g))
-    return ("pole", int(near[np.argmin(np.linalg.norm(V[near] - P, axis=1))]))
+    return ("pole", int(near[np.argmin(np.linalg.norm(V[near] - P, axis=1))]), dome)
 
 
 def _crossing(valid, narrow):
@@ -456,18 +482,30 @@ def _is_tube(rg, valid, tube, fit, R, dstar, h):
     """The ring checks of the module doc, with the tolerances ``ENDS_TIP_*``: the line and the roundness
     each with ``ENDS_TIP_EDGE_SLACK`` median edges ``h`` of slack (a tip a few edges across has rings as
     ragged as its edges: the 32-tip vein tree meshed at 3 voxels across its tips lost two of them)."""
-    d, rho, spread = rg["d"], rg["rho"], rg["spread"]
-    _, _, speed, resid = fit
-    slack = tol.ENDS_TIP_EDGE_SLACK * h
-    if abs(speed - 1.0) > tol.ENDS_TIP_SPEED_TOL or resid > tol.ENDS_TIP_LINE_TOL * R + slack:
-        return False  # the rings' centroids do not run down an axis
+    rho, spread = rg["rho"], rg["spread"]
+    slack = _edge_slack(h)
     if np.any(np.abs(rho[tube] - R) > tol.ENDS_TIP_RADIUS_TOL * R) or np.any(
             spread[tube] > tol.ENDS_TIP_ROUND_TOL * rho[tube] + slack):
         return False  # the rings past the equator are not the round sections of a tube
+    return _is_dome(rg, valid, fit, R, dstar, h)
+
+
+def _is_dome(rg, valid, fit, R, dstar, h):
+    """The ring checks of :func:`_is_tube` but the roundness of the tube's rings: their centroids run
+    down a line at about unit speed, and the dome's rings close in like a hemisphere's."""
+    d, rho = rg["d"], rg["rho"]
+    _, _, speed, resid = fit
+    if abs(speed - 1.0) > tol.ENDS_TIP_SPEED_TOL or resid > tol.ENDS_TIP_LINE_TOL * R + _edge_slack(h):
+        return False  # the rings' centroids do not run down an axis
     dome = np.flatnonzero(valid & (d >= tol.ENDS_TIP_DOME_FROM * dstar) & (d <= tol.ENDS_TIP_DOME_TO * dstar))
     if len(dome) and np.any(np.abs(rho[dome] - R * np.sin(d[dome] / R)) > tol.ENDS_TIP_RADIUS_TOL * R):
         return False  # the dome's rings do not close in like a hemisphere's
     return True
+
+
+def _edge_slack(h):
+    """The slack of the line and roundness checks: ``ENDS_TIP_EDGE_SLACK`` median edges ``h``."""
+    return tol.ENDS_TIP_EDGE_SLACK * h
 
 
 def _circles(eig, h):
@@ -594,4 +632,4 @@ def _crossing_end(V, G, tip, h):
     region = np.flatnonzero(g <= tol.ENDS_ROUNDED_REGION * R)
     radius = float(np.linalg.norm(u, axis=1).mean())
     return {"tip": int(tip), "ring": ring, "region": region, "center": center,
-            "direction": direction / lu, "radius": radius}
+            "direction": direction / lu, "radius": radius, "tube": True}

@@ -392,10 +392,27 @@ def _without_sacs(tips, ends, sacs, V, G, h):
     for a sac and its vessel left without an axis). A sac is logged and left to the fit, whose path
     passes it, and appended to ``sacs`` as ``(center, direction, radius)``. A closed mesh's domes (no
     cut end to compare with) and a mesh left with fewer than two ends keep them all.
+
+    A dome on no round tube (a record with ``tube`` False, :func:`._ends_tips._dome_only`: an oval
+    or lobed body behind a hemispherical dome) is never an end: wider than ``ENDS_SAC_RATIO`` times
+    the widest cut end it is a sac, otherwise it is left out.
     """
-    if not ends or not tips:
+    domes = [t for t in tips if not t["tube"]]
+    tips = [t for t in tips if t["tube"]]
+    if not ends:
         return tips
     widest = max(e.radius for e in ends)
+    for t in domes:
+        where = f"a rounded dome of radius {t['radius']:.4g} at {np.round(t['center'], 3).tolist()}"
+        if t["radius"] > tol.ENDS_SAC_RATIO * widest:
+            log.info("%s on a body that is no round tube is wider than every open or capped end (the widest %.4g): "
+                     "a blind sac", where, widest)
+            sacs.append((np.asarray(t["center"], np.float64), np.asarray(t["direction"], np.float64),
+                         float(t["radius"])))
+        else:
+            log.debug("%s on a body that is no round tube is no wider than the cut ends: not an end", where)
+    if not tips:
+        return tips
     wide = [t["radius"] > tol.ENDS_SAC_RATIO * widest for t in tips]
     tube = [own_tube(V, G, t, h) if w else np.inf for t, w in zip(tips, wide)]
     sac = [w and L < tol.ENDS_SAC_TUBE_RADII for w, L in zip(wide, tube)]
