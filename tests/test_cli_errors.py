@@ -54,7 +54,7 @@ def _join(files, *options):
     (["torsion", "{y}", "{y}"], "mesh has 3 ends; pass --ends I J to choose the vessel's path"),
     (["twist", "{y}", "{y}", "--ends-a", 0, 9], "scan A: --ends-a 0 9 must be two different end indices in 0..2"),
     (["twist", "{y2}", "{y2}", "--ends-b", 1, 1], "scan B: --ends-b 1 1 must be two different end indices"),
-    (["twist", "{y}", "{y}"], "needs at least two landmarks (choose other ends with --ends-a)"),
+    (["twist", "{y}", "{y}"], "main vessels from end 0 with their landmarks: (0, 1): 1, (0, 2): 1 (choose one with --ends-a)"),
     (["join", CORONARY, "--end", 5, "--onto", "{tube}", "--other-end", 0], "--end 5 is not an end index in 0..1"),
     (["join", CORONARY, "--end", 1, "--onto", "{tube}", "--other-end", 9], "--other-end 9 is not an end index"),
     ("join max-stretch", "--max-stretch must be at least 1 (no stretch), got 0.5"),

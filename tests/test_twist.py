@@ -63,8 +63,9 @@ def test_segment_twists_match_the_imposed_twist(pairs, name):
     seg, total = DOCS_TWIST[name]
     assert np.all(np.abs(err) <= min(1.5 * seg, SEG_TOL_DEG)), err
     assert abs(np.degrees(r.total_twist - p.total_twist)) <= min(max(1.5 * abs(total), 0.1), SEG_TOL_DEG)
-    # landmarks where the true junctions are, arc lengths and stretch as built
-    assert np.all(np.abs(r.s_a - p.s_a) < 0.5 * 3.0)
+    # landmarks where the true junctions are (at the ostium: two main radii along a side branch leaving at
+    # 75 degrees lie about half a main radius downstream), arc lengths and stretch as built
+    assert np.all(np.abs(r.s_a - p.s_a) < 3.0)
     assert np.allclose(r.stretch, p.stretch, atol=0.04)
     assert np.allclose(r.twist_per_length, r.segment_twist / r.segment_length_a)
     # scan B's junction points are the true ones moved by the rigid motion
@@ -121,7 +122,7 @@ def test_a_side_branch_missing_in_one_scan_is_reported(caplog):
     with caplog.at_level("WARNING", logger="vesselgp.twist"):
         r = vg.twist_between(p.a.V, p.a.F, p.V_b, p.b.F)
     assert len(r.s_a) == 3 and len(r.unmatched_a) == 1 and len(r.unmatched_b) == 0
-    assert abs(r.unmatched_a[0] - p.s_a[1]) < 1.5
+    assert abs(r.unmatched_a[0] - p.s_a[1]) < 3.0  # at its ostium, within a main radius of the junction
     assert any("unmatched" in rec.getMessage() for rec in caplog.records)
     want = np.array([p.alpha[2] - p.alpha[0], p.alpha[3] - p.alpha[2]])
     assert np.all(np.abs(np.degrees(r.segment_twist - want)) <= SEG_TOL_DEG)
@@ -145,6 +146,15 @@ def test_cli_twist(tmp_path, pairs, capsys):
     assert abs(d["total_twist_deg"] - np.degrees(p.total_twist)) <= SEG_TOL_DEG
     rows = (out / "twist.csv").read_text().strip().splitlines()
     assert len(rows) == 1 + len(p.segment_twist) and "twist_deg_per_cm" in rows[0]
+    # the uncertainty in every output: the truth inside each stated interval, the same numbers everywhere
+    err = np.abs(np.asarray(d["segment_twist_deg"]) - np.degrees(p.segment_twist))
+    assert np.all(err <= np.asarray(d["segment_uncertainty_deg"])) and not any(d["unreliable"])
+    assert np.allclose(d["segment_uncertainty_deg"], np.degrees(r.segment_uncertainty))
+    head = rows[0].split(",")
+    csv_unc = [float(x.split(",")[head.index("uncertainty_deg")]) for x in rows[1:]]
+    assert np.allclose(csv_unc, d["segment_uncertainty_deg"], atol=1e-6)
+    assert len(d["landmark_uncertainty_a_deg"]) == len(d["s_a"]) and d["main_axis_a"] == "single fit"
+    assert np.isclose(d["cumulative_uncertainty_deg"][0], 0.0)
     assert (out / "twist_scans.png").stat().st_size > 10_000 and (out / "twist_profile.png").exists()
     assert sorted(x.name for x in out.iterdir()) == ["report.html", "twist.csv", "twist.json", "twist_profile.png",
                                                        "twist_scans.png"]

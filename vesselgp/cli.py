@@ -575,9 +575,10 @@ def _add_twist(sub, fmt):
     p.add_argument("scan_a", help="first scan (the reference for lengths and direction)")
     p.add_argument("scan_b", help="second scan (any pose and meshing)")
     p.add_argument("--ends-a", type=int, nargs=2, metavar=("I", "J"),
-                   help="main-vessel ends of scan A, from I (default: the two widest, widest first)")
+                   help="main-vessel ends of scan A, from I (default: from the widest end to the tip with the most "
+                        "landmarks)")
     p.add_argument("--ends-b", type=int, nargs=2, metavar=("I", "J"),
-                   help="main-vessel ends of scan B, from the same anatomical end (default: the two widest, "
+                   help="main-vessel ends of scan B, from the same anatomical end (default: as for scan A, "
                         "direction decided by the landmarks)")
     _units_options(p, "both scans")
     p.add_argument("--no-png", action="store_true", help="do not render PNGs")

@@ -1129,6 +1129,13 @@ def twist_to_dict(r):
         "twist_per_length_deg_per_cm": np.degrees(r.twist_per_length) * 10.0, "stretch": r.stretch,
         "cumulative_twist_deg": np.concatenate([[0.0], np.cumsum(seg)]),
         "total_twist_deg": math.degrees(r.total_twist),
+        "segment_uncertainty_deg": np.degrees(r.segment_uncertainty), "unreliable": r.unreliable,
+        "cumulative_uncertainty_deg": np.degrees(r.cumulative_uncertainty),
+        "landmark_uncertainty_a_deg": np.degrees(r.landmark_uncertainty_a),
+        "landmark_uncertainty_b_deg": np.degrees(r.landmark_uncertainty_b),
+        "side_angle_a_deg": np.degrees(r.angle_a), "divides_a": r.divides_a, "divides_b": r.divides_b,
+        "main_axis_a": r.main_axis_a, "main_axis_b": r.main_axis_b,
+        "uncertainty": "half-width of the 95 % interval (degrees)",
         "unmatched_s_a": r.unmatched_a, "unmatched_s_b": r.unmatched_b,
         "sign": "right-handed about the main axis from ends_a[0] to ends_a[1]",
     }
@@ -1160,7 +1167,8 @@ def write_twist(out, tw, *, render=True):
     write_csv(out("twist.csv"), {
         "segment": np.arange(1, k + 1), "s_a_start": r.s_a[:-1], "s_a_end": r.s_a[1:],
         "length_a": r.segment_length_a, "length_b": r.segment_length_b, "stretch": r.stretch,
-        "twist_deg": d["segment_twist_deg"], "twist_deg_per_cm": d["twist_per_length_deg_per_cm"],
+        "twist_deg": d["segment_twist_deg"], "uncertainty_deg": d["segment_uncertainty_deg"],
+        "unreliable": r.unreliable.astype(int), "twist_deg_per_cm": d["twist_per_length_deg_per_cm"],
         "cumulative_deg": d["cumulative_twist_deg"][1:]})
     if render:
         panels = []
@@ -1180,7 +1188,8 @@ def write_twist(out, tw, *, render=True):
                               f"matched in order along the main vessel; black: the fitted axes. Twist: the turn of "
                               f"the landmarks' directions about the main axis from scan A to scan B, {sense}.")
         plot_cumulative_twist(out("twist_profile.png"), r.s_a, d["cumulative_twist_deg"],
-                              segment_deg=d["segment_twist_deg"],
+                              segment_deg=d["segment_twist_deg"], segment_uncertainty_deg=d["segment_uncertainty_deg"],
+                              cumulative_uncertainty_deg=d["cumulative_uncertainty_deg"],
                               caption=f"0 at landmark 1 (the first side branch from end {r.ends_a[0]}); each number on "
                                       f"the line is that segment's twist; positive: {sense}.")
         _twist_report(out, tw, d, sense)
@@ -1228,18 +1237,30 @@ def _twist_report(out, tw, d, sense):
                       caption=f"Scan A shaded by the twist from scan A to scan B accumulated along its main vessel "
                               f"(degrees; 0 at landmark 1, the first side branch from end {r.ends_a[0]}; positive: "
                               f"{sense}); a side branch takes the value where it leaves. Total "
-                              f"{d['total_twist_deg']:+.1f} degrees over {len(r.s_a)} landmarks.")
+                              f"{d['total_twist_deg']:+.1f} \u00b1 {d['cumulative_uncertainty_deg'][-1]:.1f} degrees "
+                              f"(95 %) over {len(r.s_a)} landmarks; segments: "
+                              + "; ".join(f"{j + 1}: {t:+.1f} \u00b1 {u:.1f}{' (unreliable)' if bad else ''}"
+                                          for j, (t, u, bad) in enumerate(zip(d["segment_twist_deg"],
+                                                                              d["segment_uncertainty_deg"],
+                                                                              d["unreliable"]))) + ".")
 
 
 def twist_table(d):
     """The printed table of ``vesselgp twist``."""
-    rows = [f"{'seg':>3} {'s_a (mm)':>17} {'len A':>7} {'len B':>7} {'stretch':>7} {'twist':>8} {'deg/cm':>7}"]
+    rows = [f"{'seg':>3} {'s_a (mm)':>17} {'len A':>7} {'len B':>7} {'stretch':>7} {'twist':>8} {'+-95%':>6} "
+            f"{'deg/cm':>7}"]
     for j, tw in enumerate(d["segment_twist_deg"]):
+        flag = "  unreliable" if d["unreliable"][j] else ""
         rows.append(f"{j + 1:>3} {d['s_a'][j]:>7.1f} - {d['s_a'][j + 1]:>7.1f} {d['segment_length_a'][j]:>7.1f} "
                     f"{d['segment_length_b'][j]:>7.1f} {d['stretch'][j]:>7.3f} {tw:>+8.1f} "
-                    f"{d['twist_per_length_deg_per_cm'][j]:>+7.2f}")
+                    f"{d['segment_uncertainty_deg'][j]:>6.1f} {d['twist_per_length_deg_per_cm'][j]:>+7.2f}{flag}")
     rows.append(f"total twist {d['total_twist_deg']:+.1f} deg over {d['n_landmarks']} landmarks "
                 f"(right-handed about scan A's main axis from end {d['ends_a'][0]} to {d['ends_a'][1]})")
+    rows.append(f"+-95%: half-width of each segment's 95 % interval (degrees); unreliable above "
+                f"{tol.TWIST_UNRELIABLE_DEG:g}; main axis {d['main_axis_a']} (A), {d['main_axis_b']} (B)")
+    div = [j + 1 for j, v in enumerate(d["divides_a"]) if v]
+    if div:
+        rows.append(f"the main vessel divides into comparable daughters at landmark(s) {div}")
     if len(d["unmatched_s_a"]) or len(d["unmatched_s_b"]):
         rows.append(f"unmatched landmarks: scan A at s = {np.round(d['unmatched_s_a'], 1).tolist()}, "
                     f"scan B at s = {np.round(d['unmatched_s_b'], 1).tolist()}")

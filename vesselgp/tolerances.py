@@ -618,6 +618,8 @@ VIZ_TREE_ALPHA = 0.35
 TWIST_DIR_START = 2.0
 #: ...to this many side-branch radii further along it.
 TWIST_DIR_SPAN = 2.0
+#: Points of the side branch's axis over that span whose offsets from the main axis give its azimuth.
+TWIST_OSTIUM_SAMPLES = 9
 #: A side branch leaving the main axis within this many degrees of its tangent has no azimuth (not a landmark).
 TWIST_MIN_ANGLE_DEG = 10.0
 #: Landmark matching: spread of the normalised position s / L between the scans (one sigma)...
@@ -630,6 +632,36 @@ TWIST_MATCH_GAP = 4.5
 TWIST_DIRECTION_MARGIN = 0.1
 #: A segment twist above this many degrees is logged as a suspect match.
 TWIST_SUSPECT_DEG = 120.0
+#: The main vessel's direction at a landmark is the chord of its axis across the junction, between the points
+#: this many main radii before and after it (outside the junction zone, TWIST_DIR_START).
+TWIST_MAIN_CHORD = 2.0
+#: Side branches whose ostia are within this many main radii along the main axis leave it together: one landmark,
+#: the wider (a segment between them would be too short to hold a twist).
+TWIST_SAME_PLACE = 0.5
+#: A side branch at least this fraction of the main vessel's radius past the junction makes the main vessel
+#: divide there into comparable daughters (said in the result: its direction there is less well defined).
+TWIST_COMPARABLE = 0.7
+#: Landmark uncertainty (one sigma of its azimuth, radians), calibrated on the twisted copies of real trees of
+#: issue #45 (tests/test_twist_real.py, scripts/twist_real.py): a floor for the meshing and the fit...
+TWIST_SIGMA_FLOOR = 0.0085
+#: ...times the circular spread of the azimuths of the side branch's samples...
+TWIST_SIGMA_SPREAD = 1.0
+#: ...times the median edge over the samples' mean offset from the main axis (a lever a few edges long)...
+TWIST_SIGMA_EDGES = 0.03
+#: ...times the angle between the fitted main tangent and the chord across the junction.
+TWIST_SIGMA_TANGENT = 0.05
+#: One sigma (radians) of the RMF's own error per segment when the main axis is the tree's path (the chain of
+#: branch axes through the junctions; the single fit's RMF has none beyond the floor).
+TWIST_SIGMA_TREE_PATH = 0.01
+#: A matched pair of side branches whose radii differ by more than this log ratio may not be one fiducial (a side
+#: branch fitted as one in a scan, as two leaving together in the other): one sigma (radians) of its azimuth
+#: change grows by TWIST_SIGMA_RADIUS times the excess.
+TWIST_RADIUS_AGREE = 0.15
+TWIST_SIGMA_RADIUS = 0.5
+#: Stated intervals are 95 %: the half-width is this many sigma.
+TWIST_Z95 = 1.96
+#: A segment whose stated half-width exceeds this many degrees is reported as unreliable.
+TWIST_UNRELIABLE_DEG = 10.0
 
 # --- cohort batches (vesselgp.batch) ---
 #: Seconds between two looks at the running tasks of a batch.

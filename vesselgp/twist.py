@@ -5,21 +5,37 @@ vertices, so the material twist between them is measured, as clinical studies
 do, from the side branches used as fiducials:
 
 1. **Main vessel.** Each scan is fitted as a tree (:func:`vesselgp.fit_vessel_tree`)
-   rooted at ``ends[0]``; the main vessel runs to ``ends[1]`` (by default the
-   two widest ends, the widest first). Its axis is the single generalized
-   cylinder fitted between those ends (:func:`vesselgp.fit_generalized_cylinder`,
-   whose robust weights drop the side branches): its RMF runs smoothly through
-   the junctions, where the tree path's chain of branch axes and junction links
-   added RMF rotation (up to 3.4 degrees per segment on the synthetic pairs,
-   against 1.1 with the single fit). ``s`` is arc length from ``ends[0]``.
-2. **Landmarks.** Every branch of the tree that leaves the main path is a
-   landmark at its junction point, projected onto the main axis for its ``s``
-   (at a junction with two side branches, the wider one, with a warning).
-3. **Azimuth.** The side branch's initial direction is the chord of its axis
-   past the junction zone (from ``TWIST_DIR_START`` main radii to that plus
-   ``TWIST_DIR_SPAN`` branch radii along it); its azimuth is the angle of that
-   direction about the main tangent, measured from U in the main path's RMF at
-   the junction (right-handed about the axis from ``ends[0]`` to ``ends[1]``).
+   rooted at ``ends[0]``; the main vessel runs to ``ends[1]``. By default
+   ``ends[0]`` is the widest end and ``ends[1]`` the tip whose path has the most
+   landmarks where the vessel does not divide (then the most landmarks, then the
+   widest tip); a refusal lists every candidate with its landmarks. Its axis is
+   the single generalized cylinder fitted between those ends
+   (:func:`vesselgp.fit_generalized_cylinder`, whose robust weights drop the side
+   branches): its RMF runs smoothly through the junctions. Where the single fit
+   cannot follow the main vessel (a coronary or pulmonary tree whose main vessel
+   is several generations long), the axis is the tree's path to ``ends[1]``
+   (``main_axis = "tree path"``, logged): its chain of branch axes and junction
+   links adds RMF rotation at each junction (up to 3.4 degrees per segment on the
+   synthetic pairs, against 1.1 with the single fit), which the segment
+   uncertainty carries (``TWIST_SIGMA_TREE_PATH``). ``s`` is arc length from
+   ``ends[0]``.
+2. **Landmarks.** Every side branch leaving the main path is a landmark at its
+   ostium: its axis point ``TWIST_DIR_START`` main radii past the junction,
+   projected onto the main axis for its ``s``. Side branches whose ostia lie
+   within ``TWIST_SAME_PLACE`` main radii leave together: the wider is the
+   landmark (logged). A side branch at least ``TWIST_COMPARABLE`` times as wide
+   as the main vessel past it makes the main vessel divide there into comparable
+   daughters: said in the log and the result (``divides``).
+3. **Azimuth.** Where the side branch lies about the main axis, not which way it
+   points: ``TWIST_OSTIUM_SAMPLES`` points of its axis from its ostium over
+   ``TWIST_DIR_SPAN`` branch radii are each projected onto the main axis, and the
+   angle of each offset from U in the main axis's RMF there (right-handed about
+   the axis from ``ends[0]`` to ``ends[1]``) is averaged as a circular mean
+   weighted by the offsets. (The direction of the branch's first chord, used
+   before, depends on a few faces and on the main tangent at a junction: twice
+   the error on the synthetic pairs, up to 9 degrees on real coronaries.) A side
+   branch whose chord leaves within ``TWIST_MIN_ANGLE_DEG`` of the main tangent
+   is no landmark.
    The RMF carries no twist of its own (paper Section 1), so a landmark's
    azimuth changes between the scans by the material twist there (Eq. 7's
    ``alpha``) plus a constant (the RMFs' arbitrary starting normals).
@@ -30,10 +46,29 @@ do, from the side branches used as fiducials:
    chosen by the landmarks (the order that matches better). Unmatched
    landmarks are reported (and logged); a segment twist above
    ``TWIST_SUSPECT_DEG`` is logged as a suspect match.
-5. **Twist.** With ``delta_j = azimuth_b[j] - azimuth_a[j]``, the twist of the
-   segment between landmarks ``j`` and ``j + 1`` is ``delta_{j+1} - delta_j``
-   wrapped to (-pi, pi]: the material twist ``alpha(s_{j+1}) - alpha(s_j)``.
-   The constant cancels, and so does any rigid motion of either scan.
+5. **Twist and its uncertainty.** With ``delta_j = azimuth_b[j] - azimuth_a[j]``,
+   the twist of the segment between landmarks ``j`` and ``j + 1`` is
+   ``delta_{j+1} - delta_j`` wrapped to (-pi, pi]: the material twist
+   ``alpha(s_{j+1}) - alpha(s_j)``. The constant cancels, and so does any rigid
+   motion of either scan. Each azimuth has a one-sigma uncertainty from what
+   makes it ill-conditioned::
+
+       sigma^2 = f^2 + (c_S spread)^2 + (c_E h / offset)^2 + (c_T eps_T)^2
+
+   with ``spread`` the circular spread of the angles of the side branch's
+   samples (step 3: a branch that winds round the main vessel, or a ragged
+   one), ``h / offset`` the median edge over the samples' mean offset from the
+   main axis (a lever a few edges long: a branch a few edges across), and
+   ``eps_T`` the angle between the fitted main tangent and the chord of the main
+   axis across the junction (``TWIST_MAIN_CHORD`` main radii each side: large
+   where the vessel divides and the fit cuts the corner). A matched pair whose
+   side radii differ by more than ``TWIST_RADIUS_AGREE`` (log ratio) may not be
+   one fiducial and adds ``TWIST_SIGMA_RADIUS`` times the excess. The
+   constants (``TWIST_SIGMA_*``) are calibrated on twisted copies of real trees with exact truth (``data_gen/real_twist.py``,
+   ``tests/test_twist_real.py``). A segment's 95 % half-width is
+   ``TWIST_Z95`` times the root sum of squares of its two landmarks' sigmas in
+   both scans (and ``TWIST_SIGMA_TREE_PATH`` per scan whose main axis is the tree
+   path); above ``TWIST_UNRELIABLE_DEG`` the segment is reported unreliable.
 """
 from __future__ import annotations
 
@@ -82,6 +117,15 @@ class Landmarks:
         Mean radius of each side branch.
     branch : (k,) int64
         The side branch (index into ``tree.branches``).
+    angle : (k,) float64
+        Angle (radians) between each side direction and the main direction there.
+    divides : (k,) bool
+        The main vessel divides there into comparable daughters (the side branch at least
+        ``TWIST_COMPARABLE`` times the radius of the main vessel past it).
+    uncertainty : (k,) float64
+        Half-width (radians) of the 95 % interval of each azimuth (step 5).
+    main_axis : str
+        ``"single fit"`` or ``"tree path"`` (step 1).
     reversed : bool
         The main axis runs from the tree's path end back to its root (``s``
         measured from ``ends[0]`` all the same).
@@ -97,6 +141,10 @@ class Landmarks:
     direction: np.ndarray
     radius: np.ndarray
     branch: np.ndarray
+    angle: np.ndarray
+    divides: np.ndarray
+    uncertainty: np.ndarray
+    main_axis: str
     reversed: bool = False
 
     def flipped(self):
@@ -105,7 +153,8 @@ class Landmarks:
         return Landmarks(tree=self.tree, ends=self.ends[::-1], main=self.main, length=self.length,
                          points=self.points[o], s=(self.length - self.s)[o], azimuth=(-self.azimuth)[o],
                          direction=self.direction[o], radius=self.radius[o], branch=self.branch[o],
-                         reversed=not self.reversed)
+                         angle=self.angle[o], divides=self.divides[o], uncertainty=self.uncertainty[o],
+                         main_axis=self.main_axis, reversed=not self.reversed)
 
 
 @dataclass(frozen=True, eq=False)
@@ -140,6 +189,20 @@ class ScanTwist:
         The matched side branches (indices into each tree's branches).
     radius_a, radius_b : (k,) float64
         Their mean radii.
+    landmark_uncertainty_a, landmark_uncertainty_b : (k,) float64
+        Half-width (radians) of the 95 % interval of each landmark's azimuth (step 5).
+    segment_uncertainty : (k - 1,) float64
+        Half-width (radians) of the 95 % interval of each segment's twist (step 5).
+    cumulative_uncertainty : (k,) float64
+        Half-width (radians) of the 95 % interval of the twist from landmark 1 to each landmark (0 at the first).
+    unreliable : (k - 1,) bool
+        Segments whose ``segment_uncertainty`` exceeds ``TWIST_UNRELIABLE_DEG``.
+    angle_a : (k,) float64
+        Angle (radians) between each side branch and the main direction in scan A.
+    divides_a, divides_b : (k,) bool
+        The main vessel divides at the landmark into comparable daughters.
+    main_axis_a, main_axis_b : str
+        ``"single fit"`` or ``"tree path"`` (step 1).
     tree_a, tree_b : VesselTree
     """
 
@@ -165,31 +228,44 @@ class ScanTwist:
     side_b: np.ndarray
     radius_a: np.ndarray
     radius_b: np.ndarray
+    landmark_uncertainty_a: np.ndarray
+    landmark_uncertainty_b: np.ndarray
+    segment_uncertainty: np.ndarray
+    cumulative_uncertainty: np.ndarray
+    unreliable: np.ndarray
+    angle_a: np.ndarray
+    divides_a: np.ndarray
+    divides_b: np.ndarray
+    main_axis_a: str
+    main_axis_b: str
     tree_a: object = field(repr=False)
     tree_b: object = field(repr=False)
 
 
-def _main_ends(ends, given, which):
-    """End indices (i, j) of the main vessel: the given pair, or the two widest, widest first."""
-    if given is not None:
-        try:
-            i, j = (int(x) for x in given)
-        except (TypeError, ValueError):
-            raise EndsError(f"{which} must be a pair of end indices (i, j), got {given!r}") from None
-        if not (0 <= i < len(ends) and 0 <= j < len(ends)) or i == j:
-            raise EndsError(f"{which}=({i}, {j}) must be two different end indices in 0..{len(ends) - 1} "
-                            f"(ends: {end_listing(ends)})")
-        return i, j
-    if len(ends) < 3:
-        raise EndsError(f"the scan has {len(ends)} ends: no side branch to use as a landmark "
+def _given_ends(ends, given, which):
+    """End indices (i, j) of a given main vessel, checked."""
+    try:
+        i, j = (int(x) for x in given)
+    except (TypeError, ValueError):
+        raise EndsError(f"{which} must be a pair of end indices (i, j), got {given!r}") from None
+    if not (0 <= i < len(ends) and 0 <= j < len(ends)) or i == j:
+        raise EndsError(f"{which}=({i}, {j}) must be two different end indices in 0..{len(ends) - 1} "
                         f"(ends: {end_listing(ends)})")
-    order = np.argsort([-e.radius for e in ends], kind="stable")
-    return int(order[0]), int(order[1])
+    return i, j
 
 
 def _at_arclength(gc, a):
     """Point of ``gc``'s axis at arc length ``a`` from its s = 0 end (clipped)."""
     return gc.at([float(np.clip(a / gc.length, 0.0, 1.0))])[0][0]
+
+
+def _unit(x):
+    return x / np.linalg.norm(x)
+
+
+def _angle(a, b):
+    """Angle (radians) between two unit vectors."""
+    return math.atan2(float(np.linalg.norm(np.cross(a, b))), float(a @ b))
 
 
 def _project_s(main, P):
@@ -207,6 +283,140 @@ def _project_s(main, P):
     return float(best[1]) * main.length
 
 
+def _side_branches(tree, k):
+    """(junction branch b, its junction point, side branches leaving the path there, the path's next branch) along
+    path ``k``, root first."""
+    path = tree.path_branches[k]
+    on_main = set(path)
+    out = []
+    for q, b in enumerate(path[:-1]):
+        J = tree.junctions[int(np.flatnonzero(tree.junction_branch == b)[0])]
+        sides = [int(c) for c in np.flatnonzero(tree.parent == b) if int(c) not in on_main]
+        if sides:
+            out.append((b, J, sides, path[q + 1]))
+    return out
+
+
+def _main_direction(main, s, r_main):
+    """The main vessel's frame at arc length ``s`` (step 3) and how ill-defined its direction is there: the angle
+    between the fitted tangent and the chord of the axis across the junction, between the points
+    ``TWIST_MAIN_CHORD`` main radii before and after it (one-sided within that of an end). On a smooth vessel the
+    two agree to a degree or two; where the vessel divides into comparable daughters the fit cuts the corner."""
+    a = tol.TWIST_MAIN_CHORD * r_main
+    lo, hi = max(s - a, 0.0), min(s + a, main.length)
+    chord = _unit(_at_arclength(main, hi) - _at_arclength(main, lo))
+    _, fr = main.at([s / main.length])
+    return fr[0], _angle(chord, fr[0][0])
+
+
+def _side_direction(side, start):
+    """A side branch's initial direction: the chord of its axis from ``start`` over ``TWIST_DIR_SPAN`` side radii
+    (within its length). Its angle to the main tangent decides whether it is a landmark (``TWIST_MIN_ANGLE_DEG``)."""
+    a1 = min(start, 0.5 * side.length)
+    a2 = min(a1 + tol.TWIST_DIR_SPAN * side.mean_radius, side.length)
+    return _unit(_at_arclength(side, a2) - _at_arclength(side, a1))
+
+
+def _side_azimuth(main, side, start):
+    """A side branch's azimuth from where it lies about the main axis (step 3): each of ``TWIST_OSTIUM_SAMPLES``
+    points of its axis from ``start`` over ``TWIST_DIR_SPAN`` side radii, projected onto the main axis, gives
+    the angle of its offset from the axis in the RMF there; the azimuth is their circular mean weighted by the
+    offsets. Returns the azimuth, the samples' circular spread (radians), the mean offset and the arc length of
+    the first sample's projection."""
+    a1 = min(start, 0.5 * side.length)
+    a2 = min(a1 + tol.TWIST_DIR_SPAN * side.mean_radius, side.length)
+    P = side.at(np.linspace(a1, a2, tol.TWIST_OSTIUM_SAMPLES) / side.length)[0]
+    s = np.array([_project_s(main, p) for p in P])
+    C, fr = main.at(s / main.length)
+    O = P - C
+    O -= np.sum(O * fr[:, 0], axis=1)[:, None] * fr[:, 0]
+    w = np.linalg.norm(O, axis=1)
+    z = np.sum(w * np.exp(1j * np.arctan2(np.sum(O * fr[:, 2], axis=1), np.sum(O * fr[:, 1], axis=1))))
+    spread = math.sqrt(max(-2.0 * math.log(max(abs(z) / w.sum(), 1e-300)), 0.0))  # circular std
+    return float(np.angle(z)), spread, float(w.mean()), float(s[0])
+
+
+def _landmark_sigma(spread, edges, eps_T):
+    """One sigma (radians) of a landmark's azimuth (step 5), from what makes it ill-conditioned: the circular
+    spread of its samples' azimuths (a branch that winds round the main vessel, or a short, ragged one), the
+    median edge over its offset from the main axis (a branch a few edges across, a lever of a few edges) and
+    the main direction's ill-definition ``eps_T`` (constants in :mod:`vesselgp.tolerances`, calibrated on real
+    trees)."""
+    return math.sqrt(tol.TWIST_SIGMA_FLOOR ** 2 + (tol.TWIST_SIGMA_SPREAD * spread) ** 2
+                     + (tol.TWIST_SIGMA_EDGES * edges) ** 2 + (tol.TWIST_SIGMA_TANGENT * eps_T) ** 2)
+
+
+def _landmark_rows(main, tree, k, h, quiet=False):
+    """The landmarks of path ``k`` about the axis ``main`` (step 2): one row per side branch leaving it, at the
+    arc length of its ostium (its axis point past the junction zone, projected on the main axis); of two within
+    ``TWIST_SAME_PLACE`` main radii of each other, the wider (``quiet``: nothing logged, counting candidates)."""
+    rows = []
+    for b, J, sides, nxt in _side_branches(tree, k):
+        s_j = _project_s(main, J)
+        r_j = float(main.radius_at([s_j / main.length])[0])
+        for c in sides:
+            side = tree.branches[c]
+            start = min(tol.TWIST_DIR_START * r_j, 0.5 * side.length)
+            s = _project_s(main, _at_arclength(side, start))
+            r_main = float(main.radius_at([s / main.length])[0])
+            (T, _, _), eps_T = _main_direction(main, s, r_main)
+            d = _side_direction(side, start)
+            theta = _angle(d, T)
+            if min(theta, math.pi - theta) < math.radians(tol.TWIST_MIN_ANGLE_DEG):
+                if not quiet:
+                    log.warning("side branch %d leaves the main axis within %g deg of its tangent: its azimuth is "
+                                "undefined, it is not used as a landmark", c, tol.TWIST_MIN_ANGLE_DEG)
+                continue
+            divides = side.mean_radius >= tol.TWIST_COMPARABLE * tree.branches[nxt].mean_radius
+            az, spread, offset, _ = _side_azimuth(main, side, start)
+            sigma = _landmark_sigma(spread, h / offset, eps_T)
+            log.debug("landmark s=%.1f theta=%.1f eps_T=%.2f spread=%.2f h/offset=%.3f sigma=%.2f deg", s,
+                      math.degrees(theta), math.degrees(eps_T), math.degrees(spread), h / offset, math.degrees(sigma))
+            rows.append(dict(s=s, point=J, azimuth=az, direction=d, radius=side.mean_radius,
+                             branch=c, angle=theta, divides=bool(divides), r_main=r_main,
+                             sigma=sigma))
+    rows.sort(key=lambda r: r["s"])
+    kept = []
+    for r in rows:  # two side branches leaving together: one landmark, the wider
+        if kept and r["s"] - kept[-1]["s"] < tol.TWIST_SAME_PLACE * max(r["r_main"], kept[-1]["r_main"]):
+            if not quiet:
+                log.warning("side branches %d and %d leave the main vessel together (s = %.3g and %.3g); the wider "
+                            "is the landmark", kept[-1]["branch"], r["branch"], kept[-1]["s"], r["s"])
+            if r["radius"] > kept[-1]["radius"]:
+                kept[-1] = r
+            continue
+        kept.append(r)
+    for r in kept:
+        del r["r_main"]
+    return kept
+
+
+def _candidates(tree, h):
+    """Every main vessel from the tree's root: (tip end, landmarks, landmarks where it does not divide, tip radius),
+    the most landmarks where it does not divide first (a path that turns into a side branch counts the main vessel
+    past it as a landmark where it divides), then the most landmarks, then the widest tip."""
+    out = []
+    for q, p in enumerate(tree.paths):
+        rows = _landmark_rows(p, tree, q, h, quiet=True)
+        out.append((p.ends[1], len(rows), sum(not r["divides"] for r in rows), tree.ends[p.ends[1]].radius))
+    return sorted(out, key=lambda x: (-x[2], -x[1], -x[3]))
+
+
+def _candidate_text(root, cands, n=6):
+    return ", ".join(f"({root}, {j}): {m}" for j, m, _, _ in cands[:n])
+
+
+def _main_axis(pm, tree, k, i, j):
+    """The main vessel's axis (step 1): its single fit between the ends, or the tree's path where the single fit
+    cannot follow it (said in the log and in the result, whose uncertainty then includes the path's RMF)."""
+    try:
+        return fit_generalized_cylinder(pm, ends=(i, j)), "single fit"
+    except NotTubularError as exc:  # the documented second axis (module notes, step 1), reported as main_axis
+        log.warning("the main vessel between ends %d and %d is not one tube its single fit can follow (%s); its "
+                    "axis is the tree's path through the junctions", i, j, str(exc).split(";")[0])
+        return tree.paths[k], "tree path"
+
+
 def scan_landmarks(V, F=None, ends=None):
     """The side-branch landmarks of one scan (steps 1-3 of the module notes).
 
@@ -217,7 +427,7 @@ def scan_landmarks(V, F=None, ends=None):
     F : (m, 3) int64
     ends : (int, int), optional
         End indices of the main vessel (``vessel_ends`` order), from ``s = 0``;
-        default the two widest, the widest first.
+        default from the widest end to the tip with the most landmarks.
 
     Returns
     -------
@@ -226,49 +436,41 @@ def scan_landmarks(V, F=None, ends=None):
     Raises
     ------
     EndsError
-        Bad ends, or fewer than two landmarks.
+        Bad ends, or fewer than two landmarks (the message lists the main vessels that have them).
     """
     pm = prepared_mesh(V, F)  # checked once for both fits (issue #34)
-    i, j = _main_ends(pm.ends, ends, "ends")
+    if ends is not None:
+        i, j = _given_ends(pm.ends, ends, "ends")
+    elif len(pm.ends) < 3:
+        raise EndsError(f"the scan has {len(pm.ends)} ends: no side branch to use as a landmark "
+                        f"(ends: {end_listing(pm.ends)})")
+    else:
+        i = int(np.argmax([e.radius for e in pm.ends]))
+    h = pm.checked.median_edge
     tree = fit_vessel_tree(pm, root=i)
+    if ends is None:
+        cands = _candidates(tree, h)
+        j = cands[0][0]
+        log.info("twist main vessel: ends (%d, %d), the most landmarks from the widest end (%s)", i, j,
+                 _candidate_text(i, cands))
     k = next(q for q, p in enumerate(tree.paths) if p.ends[1] == j)
-    on_main = set(tree.path_branches[k])
-    try:
-        main = fit_generalized_cylinder(pm, ends=(i, j))
-    except NotTubularError as exc:  # not a fallback: the refusal, told as the twist's
-        raise NotTubularError(f"the main vessel between ends {i} and {j} is not one tube its single fit can follow "
-                              f"(the twist's main axis, vesselgp.twist notes): {str(exc).split(';')[0]}; choose "
-                              "another main vessel with ends=") from None
-    rows = []
-    for b in tree.path_branches[k][:-1]:
-        J = tree.junctions[int(np.flatnonzero(tree.junction_branch == b)[0])]
-        s = _project_s(main, J)
-        r_main = float(main.radius_at([s / main.length])[0])
-        _, fr = main.at([s / main.length])
-        T, U, W = fr[0]
-        sides = [int(c) for c in np.flatnonzero(tree.parent == b) if int(c) not in on_main]
-        if len(sides) > 1:  # a trifurcation: one landmark per junction, the widest side branch
-            log.warning("junction at s = %.3g has %d side branches; the widest is its landmark", s, len(sides))
-            sides = [max(sides, key=lambda c: tree.branches[c].mean_radius)]
-        for c in sides:
-            side = tree.branches[int(c)]
-            a1 = min(tol.TWIST_DIR_START * r_main, 0.5 * side.length)
-            a2 = min(a1 + tol.TWIST_DIR_SPAN * side.mean_radius, side.length)
-            d = _at_arclength(side, a2) - _at_arclength(side, a1)
-            d /= np.linalg.norm(d)
-            across = d - (d @ T) * T
-            if np.linalg.norm(across) < math.sin(math.radians(tol.TWIST_MIN_ANGLE_DEG)):
-                log.warning("side branch %d leaves the main axis within %g deg of its tangent: its azimuth is "
-                            "undefined, it is not used as a landmark", c, tol.TWIST_MIN_ANGLE_DEG)
-                continue
-            rows.append((s, J, math.atan2(d @ W, d @ U), d, side.mean_radius, int(c)))
-    rows.sort(key=lambda r: r[0])
+    main, kind = _main_axis(pm, tree, k, i, j)
+    rows = _landmark_rows(main, tree, k, h)
     if len(rows) < 2:
+        cands = _candidates(tree, h)
         raise EndsError(f"the main vessel between ends {i} and {j} has {len(rows)} side branch(es); twist between "
-                        "scans needs at least two landmarks (choose other ends with ends=)")
-    s, P, az, d, r, br = (np.array(x) for x in zip(*rows))
-    return Landmarks(tree=tree, ends=(i, j), main=main, length=float(main.length), points=P, s=s, azimuth=az,
-                     direction=d, radius=r, branch=br.astype(np.int64))
+                        f"scans needs at least two landmarks; main vessels from end {i} with their landmarks: "
+                        f"{_candidate_text(i, cands)} (choose one with ends=)")
+    for r in rows:
+        if r["divides"]:
+            log.warning("the main vessel divides at s = %.3g into comparable daughters (side radius %.3g): its "
+                        "direction there is less well defined, the landmark's uncertainty says by how much",
+                        r["s"], r["radius"])
+    col = {key: np.array([r[key] for r in rows]) for key in rows[0]}
+    return Landmarks(tree=tree, ends=(i, j), main=main, length=float(main.length), points=col["point"],
+                     s=col["s"], azimuth=col["azimuth"], direction=col["direction"], radius=col["radius"],
+                     branch=col["branch"].astype(np.int64), angle=col["angle"], divides=col["divides"],
+                     uncertainty=tol.TWIST_Z95 * col["sigma"], main_axis=kind)
 
 
 def _match(A, B):
@@ -294,6 +496,21 @@ def _match(A, B):
         else:
             j -= 1
     return pairs[::-1], float(D[na, nb])
+
+
+def _segment_uncertainty(u_a, u_b, r_a, r_b, n_path):
+    """95 % half-widths (radians) of the segment twists and of the twist from landmark 1 to each landmark, and
+    the unreliable segments (step 5), from the matched landmarks' half-widths ``u_a``, ``u_b`` (k,), their side
+    radii ``r_a``, ``r_b`` (k,) and the number of scans whose main axis is the tree path."""
+    ua, ub = u_a / tol.TWIST_Z95, u_b / tol.TWIST_Z95  # one sigma
+    path = n_path * tol.TWIST_SIGMA_TREE_PATH ** 2
+    # a pair of side branches of different sizes may not be one fiducial: its azimuth change is less sure
+    ub = np.hypot(ub, tol.TWIST_SIGMA_RADIUS * np.maximum(np.abs(np.log(r_a / r_b)) - tol.TWIST_RADIUS_AGREE, 0.0))
+    useg = tol.TWIST_Z95 * np.sqrt(ua[:-1] ** 2 + ua[1:] ** 2 + ub[:-1] ** 2 + ub[1:] ** 2 + path)
+    # from landmark 1 to landmark j the landmarks between cancel; the path's RMF error adds up per segment
+    ucum = tol.TWIST_Z95 * np.sqrt(ua[0] ** 2 + ua ** 2 + ub[0] ** 2 + ub ** 2 + path * np.arange(len(ua)))
+    ucum[0] = 0.0
+    return useg, ucum, useg > math.radians(tol.TWIST_UNRELIABLE_DEG)
 
 
 def _scan_landmarks(scan, V, F, ends):
@@ -323,8 +540,9 @@ def twist_between(V_a, F_a=None, V_b=None, F_b=None, *, ends_a=None, ends_b=None
     F_b : (m2, 3) int64
     ends_a, ends_b : (int, int), optional
         Main-vessel end indices (``vessel_ends`` order) of each scan, from the
-        same anatomical end. By default the two widest ends, and scan B's
-        direction is decided by the landmarks.
+        same anatomical end. By default from the widest end to the tip with
+        the most landmarks (module notes, step 1), and scan B's direction is
+        decided by the landmarks.
 
     Returns
     -------
@@ -374,11 +592,19 @@ def twist_between(V_a, F_a=None, V_b=None, F_b=None, *, ends_a=None, ends_b=None
     if not (np.all(la > 0) and np.all(lb > 0)):
         raise EndsError("two matched landmarks sit at the same place on the main axis; the twist between them "
                         "is undefined (check the side branches of both scans)")
+    n_path = sum(X.main_axis == "tree path" for X in (A, B))
+    useg, ucum, unreliable = _segment_uncertainty(A.uncertainty[ia], B.uncertainty[ib], A.radius[ia],
+                                                  B.radius[ib], n_path)
+    for q in np.flatnonzero(unreliable):
+        log.warning("twist_between: segment %d is unreliable: its twist %.1f deg is known to +- %.1f deg", q + 1,
+                    math.degrees(seg[q]), math.degrees(useg[q]))
     return ScanTwist(
         landmarks_a=A.points[ia], landmarks_b=B.points[ib], s_a=A.s[ia], s_b=B.s[ib],
         azimuth_a=A.azimuth[ia], azimuth_b=B.azimuth[ib], segment_twist=seg, segment_length_a=la,
         segment_length_b=lb, twist_per_length=seg / la, stretch=lb / la, total_twist=float(seg.sum()),
         ends_a=A.ends, ends_b=B.ends, length_a=A.length, length_b=B.length, unmatched_a=A.s[un_a],
         unmatched_b=B.s[un_b], side_a=A.branch[ia], side_b=B.branch[ib], radius_a=A.radius[ia],
-        radius_b=B.radius[ib], tree_a=A.tree, tree_b=B.tree,
+        radius_b=B.radius[ib], landmark_uncertainty_a=A.uncertainty[ia], landmark_uncertainty_b=B.uncertainty[ib],
+        segment_uncertainty=useg, cumulative_uncertainty=ucum, unreliable=unreliable, angle_a=A.angle[ia], divides_a=A.divides[ia],
+        divides_b=B.divides[ib], main_axis_a=A.main_axis, main_axis_b=B.main_axis, tree_a=A.tree, tree_b=B.tree,
     )

@@ -985,8 +985,9 @@ def compose_side_by_side(path, images, *, title=None):
     return Path(path)
 
 
-def plot_cumulative_twist(path, s, twist_deg, *, segment_deg=None, xlabel="arc length along scan A (mm)",
-                          title=None, caption=None):
+def plot_cumulative_twist(path, s, twist_deg, *, segment_deg=None, segment_uncertainty_deg=None,
+                          cumulative_uncertainty_deg=None, xlabel="arc length along scan A (mm)", title=None,
+                          caption=None):
     """Cumulative twist against arc length, with each segment's value written on it.
 
     Parameters
@@ -999,6 +1000,10 @@ def plot_cumulative_twist(path, s, twist_deg, *, segment_deg=None, xlabel="arc l
         Cumulative twist at each landmark (degrees, 0 at the first).
     segment_deg : (k - 1,) float64, optional
         The twist of each segment, written at its middle (default: the differences).
+    segment_uncertainty_deg : (k - 1,) float64, optional
+        Half-width of each segment's 95 % interval, written after its twist (``+-``).
+    cumulative_uncertainty_deg : (k,) float64, optional
+        Half-width of the cumulative twist's 95 % interval at each landmark, drawn as a band.
     xlabel, title : str
     caption : str, optional
         Text below the plot (e.g. what zero is and which way is positive).
@@ -1015,8 +1020,14 @@ def plot_cumulative_twist(path, s, twist_deg, *, segment_deg=None, xlabel="arc l
     fig = _figure((6.4, 4.0))
     ax = fig.subplots()
     ax.plot(s, c, "-o", color="C0", lw=1.8, ms=5)
+    if cumulative_uncertainty_deg is not None:
+        u = np.asarray(cumulative_uncertainty_deg, float).reshape(-1)
+        ax.fill_between(s, c - u, c + u, color="C0", alpha=0.15, lw=0, label="95 % interval")
+        ax.legend(loc="best", fontsize=8)
+    pm = [""] * len(seg) if segment_uncertainty_deg is None else \
+        [f" \u00b1{u:.1f}" for u in np.asarray(segment_uncertainty_deg, float).reshape(-1)]
     for j, v in enumerate(seg):
-        ax.annotate(f"{v:+.1f}\u00b0", (0.5 * (s[j] + s[j + 1]), 0.5 * (c[j] + c[j + 1])), xytext=(0, 8),
+        ax.annotate(f"{v:+.1f}{pm[j]}\u00b0", (0.5 * (s[j] + s[j + 1]), 0.5 * (c[j] + c[j + 1])), xytext=(0, 8),
                     textcoords="offset points", ha="center", fontsize=9)
     for j, (x, y) in enumerate(zip(s, c)):
         ax.annotate(str(j + 1), (x, y), xytext=(0, -14), textcoords="offset points", ha="center", fontsize=8,

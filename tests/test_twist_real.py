@@ -1,0 +1,174 @@
+"""Twist between two scans on real trees, against exact truth (issue #45).
+
+Scan A is a real tree of ``shared/data/real``; scan B is a copy twisted by a known
+``alpha(s)`` about VMTK's centre line of its main vessel (side subtrees turned rigidly by
+``alpha`` at their junctions), remeshed by pymeshlab and moved rigidly
+(``data_gen/real_twist.py``): the truth comes from VMTK's lines, never from vesselgp's fit.
+A measured landmark's truth is the twist of the subtree its side branch's vertices lie in.
+
+Each segment must be within 2 degrees of the truth or within 2 degrees plus its stated 95 %
+half-width (the issue's bound); over all cases the truth lies inside the stated interval for
+at least 90 % of segments. The wider sweep (12 cases) is ``scripts/twist_real.py``.
+"""
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import vesselgp as vg
+from vesselgp import tolerances as tol
+from vesselgp.errors import EndsError
+from vesselgp.rotations import wrap_angle
+from vesselgp.twist import _segment_uncertainty
+from _data import REAL
+
+XCAT = "xrayangio_xcat-coronary-tree_open.stl"
+RENAL = "gmsh_abdominal-aorta-renal-iliac_open.stl"
+ARCH = "cardiopinns_aortic-arch-4dflow_capped.stl"
+GMSH_ARCH = "gmsh_aortic-arch_open.stl"
+
+pytestmark = pytest.mark.skipif(not all((REAL / n).is_file() and (REAL / "vmtk" / f"{n}.npz").is_file()
+                                        for n in (XCAT, RENAL, ARCH, GMSH_ARCH)),
+                                reason=f"real meshes or their VMTK lines not in {REAL}")
+
+#: (mesh, VMTK line of the main vessel, profile, total degrees): a coronary whose main vessel the single fit cannot
+#: follow (tree path), with 7 side branches at 18-77 degrees; an aorta with visceral branches and the iliac
+#: bifurcation (comparable daughters) as its last landmark; an arch with three supra-aortic branches
+CASES = {"XCAT coronary, linear 40 deg": (XCAT, 1, "linear", 40.0),
+         "renal-iliac aorta, sine -30 deg": (RENAL, 0, "sine", -30.0),
+         "capped arch, linear 30 deg": (ARCH, 0, "linear", 30.0)}
+
+
+def _generator():
+    path = Path(__file__).resolve().parents[1] / "data_gen" / "real_twist.py"
+    spec = importlib.util.spec_from_file_location("real_twist", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["real_twist"] = mod  # dataclasses look their module up
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def measured_against_truth(case):
+    """twist_between on the case with the main vessel's ends given; (result, truth per segment in radians)."""
+    near = lambda ends, p: int(np.argmin([np.linalg.norm(e.center - p) for e in ends]))  # noqa: E731
+    ea, eb = vg.vessel_ends(case.V_a, case.F_a), vg.vessel_ends(case.V_b, case.F_b)
+    moved = lambda p: p @ case.rotation.T + case.translation  # noqa: E731
+    r = vg.twist_between(case.V_a, case.F_a, case.V_b, case.F_b,
+                         ends_a=(near(ea, case.source), near(ea, case.target)),
+                         ends_b=(near(eb, moved(case.source)), near(eb, moved(case.target))))
+    truth = []
+    for c in r.side_a:  # the subtree most of the side branch's vertices lie in
+        lab = case.labels[r.tree_a.vertex_branch == c]
+        lab = lab[lab >= 0]
+        assert len(lab) and np.mean(lab == np.bincount(lab).argmax()) > 0.8
+        truth.append(case.junctions[np.bincount(lab).argmax()].alpha)
+    return r, np.diff(truth)
+
+
+@pytest.fixture(scope="module")
+def runs():
+    rt = _generator()
+    out = {}
+    for k, (name, line, kind, total) in enumerate(CASES.values()):
+        L = rt.arc_length(rt.load_tree(name)[2][line][0])[-1]
+        case = rt.twisted_copy(name, line, rt.alpha_profile(kind, total, 0.0, L), seed=k)
+        out[list(CASES)[k]] = (case, *measured_against_truth(case))
+    return out
+
+
+@pytest.mark.parametrize("label", list(CASES))
+def test_segments_within_two_degrees_plus_their_uncertainty(runs, label):
+    case, r, truth = runs[label]
+    assert len(r.unmatched_a) == 0 and len(r.unmatched_b) == 0 and len(r.segment_twist) >= 1
+    err = np.degrees(np.abs(wrap_angle(r.segment_twist - truth)))
+    unc = np.degrees(r.segment_uncertainty)
+    assert np.all(err <= 2.0 + unc), (err, unc)
+    assert np.all(np.isfinite(unc)) and np.all(unc > 0)
+    # the twist from landmark 1 to every landmark, the same bound with its cumulative interval
+    cum_err = np.degrees(np.abs(np.cumsum(wrap_angle(r.segment_twist - truth))))
+    assert np.all(cum_err <= 2.0 + np.degrees(r.cumulative_uncertainty[1:]))
+
+
+def test_the_stated_interval_holds_the_truth_for_nine_segments_in_ten(runs):
+    err, unc = (np.concatenate(x) for x in zip(*[(np.degrees(np.abs(wrap_angle(r.segment_twist - t))),
+                                                   np.degrees(r.segment_uncertainty)) for _, r, t in runs.values()]))
+    assert np.mean(err <= unc) >= 0.9, (err, unc)
+    # and the intervals say something: the median half-width is a few degrees (docs/accuracy.md)
+    assert np.median(unc) <= 5.0
+
+
+def test_the_main_vessel_is_told_how_it_was_followed(runs):
+    """The XCAT coronary's main vessel is refused by the single fit in scan A (the issue's table): its axis is
+    the tree's path, said in the result; the aorta and the arch have their single fits. The iliac bifurcation at
+    the aorta's end is said to divide into comparable daughters; the arch's supra-aortic branches are not."""
+    _, r, _ = runs["XCAT coronary, linear 40 deg"]
+    assert "tree path" in (r.main_axis_a, r.main_axis_b)
+    _, r, _ = runs["renal-iliac aorta, sine -30 deg"]
+    assert r.main_axis_a == r.main_axis_b == "single fit"
+    assert r.divides_a[-1] and not r.divides_a[0]
+    assert r.segment_uncertainty[-1] > r.segment_uncertainty[0]  # the division is less sure
+    _, r, _ = runs["capped arch, linear 30 deg"]
+    assert not np.any(r.divides_a) and r.main_axis_a == "single fit"
+
+
+@pytest.mark.parametrize("name", [XCAT, RENAL, ARCH, GMSH_ARCH])
+def test_default_ends_run_on_every_real_tree_with_three_side_branches(name):
+    """The real trees with at least three side branches run with the default ends: from the widest end to the
+    tip with the most landmarks; the scan against itself gives zero twist inside its intervals."""
+    V, F = vg.read_mesh(REAL / name)[:2]
+    V = V * (1000.0 if name == GMSH_ARCH else 1.0)  # stored in metres
+    r = vg.twist_between(V, F, V, F)
+    assert len(r.s_a) >= 2 and r.ends_a == r.ends_b
+    ends = vg.vessel_ends(V, F)
+    assert r.ends_a[0] == int(np.argmax([e.radius for e in ends]))
+    assert np.allclose(r.segment_twist, 0.0, atol=1e-9)
+
+
+def test_a_main_vessel_with_too_few_landmarks_names_the_ones_that_work():
+    """Given a main vessel with one side branch (the capped arch's root to its first supra-aortic branch), the
+    refusal lists every main vessel from that root with its landmarks, the most first."""
+    V, F = vg.read_mesh(REAL / ARCH)[:2]
+    ends = vg.vessel_ends(V, F)
+    root = int(np.argmax([e.radius for e in ends]))
+    tips = [j for j in range(len(ends)) if j != root]
+    msg = None
+    for j in sorted(tips, key=lambda j: np.linalg.norm(ends[j].center - ends[root].center)):
+        try:
+            vg.twist_between(V, F, V, F, ends_a=(root, j), ends_b=(root, j))
+        except EndsError as exc:
+            msg = str(exc)
+            break
+    assert msg is not None, "every main vessel of the capped arch has two landmarks"
+    assert "main vessels from end" in msg and "ends_a=" in msg and "scan A" in msg
+    parts = msg.split(f"({root}, ")[1:]
+    assert sorted(int(x.split(")")[0]) for x in parts) == sorted(tips)  # every candidate named
+    counts = [int(x.split(": ")[1].split(",")[0].split(" ")[0]) for x in parts]
+    assert counts[0] >= 2 and counts == sorted(counts, reverse=True)
+
+
+@pytest.mark.parametrize("factor", [0.99, 1.01])
+def test_unreliable_at_its_edge(factor):
+    """Four equal landmark sigmas x give a half-width of TWIST_Z95 * 2 x: a segment is unreliable just above
+    TWIST_UNRELIABLE_DEG, not just below."""
+    x = factor * np.radians(tol.TWIST_UNRELIABLE_DEG) / (2 * tol.TWIST_Z95)
+    s = np.full(3, x * tol.TWIST_Z95)  # half-widths of the landmarks
+    useg, ucum, bad = _segment_uncertainty(s, s, np.ones(3), np.ones(3), 0)
+    assert np.allclose(np.degrees(useg), factor * tol.TWIST_UNRELIABLE_DEG)
+    assert np.all(bad == (factor > 1))
+    assert np.allclose(ucum, [0.0, useg[0], useg[0]])
+
+
+@pytest.mark.parametrize("ratio,widens", [(np.exp(tol.TWIST_RADIUS_AGREE) * 0.99, False),
+                                          (np.exp(tol.TWIST_RADIUS_AGREE) * 1.01, True)])
+def test_a_pair_of_unequal_side_branches_widens_its_interval_at_the_edge(ratio, widens):
+    s = np.full(2, 0.01)
+    base, _, _ = _segment_uncertainty(s, s, np.ones(2), np.ones(2), 0)
+    useg, _, _ = _segment_uncertainty(s, s, np.array([1.0, ratio]), np.ones(2), 0)
+    assert (useg[0] > base[0] * (1 + 1e-9)) == widens
+    # the tree path's own RMF error adds per scan and per segment
+    path, _, _ = _segment_uncertainty(s, s, np.ones(2), np.ones(2), 2)
+    assert np.isclose(path[0] ** 2, base[0] ** 2 + 2 * (tol.TWIST_Z95 * tol.TWIST_SIGMA_TREE_PATH) ** 2)
