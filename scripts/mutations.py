@@ -430,8 +430,8 @@ MUTATIONS = {
     ),
     "twist_main_fit_checks_again": (
         "vesselgp/twist.py",
-        "    main = fit_generalized_cylinder(pm, ends=(i, j))",
-        "    main = fit_generalized_cylinder(V, F, ends=(i, j))",
+        "        return fit_generalized_cylinder(pm, ends=(i, j)), \"single fit\"",
+        "        return fit_generalized_cylinder(pm.V, pm.F, ends=(i, j)), \"single fit\"",
         ["tests/test_prepared.py"],
     ),
     "network_inscribed_is_the_mean_radius": (
@@ -580,9 +580,45 @@ MUTATIONS = {
     ),
     "twist_azimuth_left_handed": (
         "vesselgp/twist.py",
-        "math.atan2(d @ W, d @ U)",
-        "math.atan2(-(d @ W), d @ U)",
+        "np.exp(1j * np.arctan2(np.sum(O * fr[:, 2], axis=1), np.sum(O * fr[:, 1], axis=1)))",
+        "np.exp(1j * np.arctan2(-np.sum(O * fr[:, 2], axis=1), np.sum(O * fr[:, 1], axis=1)))",
         ["tests/test_twist.py"],
+    ),
+    "twist_uncertainty_of_scan_a_only": (
+        "vesselgp/twist.py",
+        "    useg = tol.TWIST_Z95 * np.sqrt(ua[:-1] ** 2 + ua[1:] ** 2 + ub[:-1] ** 2 + ub[1:] ** 2 + path)",
+        "    useg = tol.TWIST_Z95 * np.sqrt(ua[:-1] ** 2 + ua[1:] ** 2 + path)",
+        ["tests/test_twist_real.py::test_unreliable_at_its_edge"],
+    ),
+    "twist_unreliable_at_the_landmarks": (
+        "vesselgp/twist.py",
+        "    return useg, ucum, useg > math.radians(tol.TWIST_UNRELIABLE_DEG)",
+        "    return useg, ucum, useg > math.radians(tol.TWIST_UNRELIABLE_DEG) / math.sqrt(2.0)",
+        ["tests/test_twist_real.py::test_unreliable_at_its_edge"],
+    ),
+    "twist_radius_mismatch_without_its_allowance": (
+        "vesselgp/twist.py",
+        "np.abs(np.log(r_a / r_b)) - tol.TWIST_RADIUS_AGREE, 0.0))",
+        "np.abs(np.log(r_a / r_b)), 0.0))",
+        ["tests/test_twist_real.py::test_a_pair_of_unequal_side_branches_widens_its_interval_at_the_edge"],
+    ),
+    "twist_cumulative_forgets_landmark_1": (
+        "vesselgp/twist.py",
+        "    ucum = tol.TWIST_Z95 * np.sqrt(ua[0] ** 2 + ua ** 2 + ub[0] ** 2 + ub ** 2 + path * np.arange(len(ua)))",
+        "    ucum = tol.TWIST_Z95 * np.sqrt(ua ** 2 + ub ** 2 + path * np.arange(len(ua)))",
+        ["tests/test_twist_real.py::test_unreliable_at_its_edge"],
+    ),
+    "twist_default_tip_with_the_fewest_landmarks": (
+        "vesselgp/twist.py",
+        "    return sorted(out, key=lambda x: (-x[2], -x[1], -x[3]))",
+        "    return sorted(out, key=lambda x: (x[2], x[1], -x[3]))",
+        ["tests/test_twist_real.py::test_default_ends_run_on_every_real_tree_with_three_side_branches"],
+    ),
+    "twist_divides_at_a_tenth_of_the_radius": (
+        "vesselgp/twist.py",
+        "            divides = side.mean_radius >= tol.TWIST_COMPARABLE * tree.branches[nxt].mean_radius",
+        "            divides = side.mean_radius >= 0.1 * tol.TWIST_COMPARABLE * tree.branches[nxt].mean_radius",
+        ["tests/test_twist_real.py::test_the_main_vessel_is_told_how_it_was_followed"],
     ),
     "twist_flip_keeps_azimuth": (
         "vesselgp/twist.py",
@@ -1132,7 +1168,7 @@ MUTATIONS = {
 
 
 def _copy_tree(dst):
-    for name in ("vesselgp", "tests", "docs"):  # docs: the tests read the documented figures (tests/_docs.py)
+    for name in ("vesselgp", "tests", "docs", "data_gen"):  # docs: the tests read the documented figures (tests/_docs.py); data_gen: the real twist cases
         shutil.copytree(ROOT / name, dst / name, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(ROOT / "pyproject.toml", dst / "pyproject.toml")
 

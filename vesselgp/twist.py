@@ -126,6 +126,8 @@ class Landmarks:
         Half-width (radians) of the 95 % interval of each azimuth (step 5).
     main_axis : str
         ``"single fit"`` or ``"tree path"`` (step 1).
+    edge : float
+        The scan's median edge.
     reversed : bool
         The main axis runs from the tree's path end back to its root (``s``
         measured from ``ends[0]`` all the same).
@@ -145,6 +147,7 @@ class Landmarks:
     divides: np.ndarray
     uncertainty: np.ndarray
     main_axis: str
+    edge: float
     reversed: bool = False
 
     def flipped(self):
@@ -154,7 +157,7 @@ class Landmarks:
                          points=self.points[o], s=(self.length - self.s)[o], azimuth=(-self.azimuth)[o],
                          direction=self.direction[o], radius=self.radius[o], branch=self.branch[o],
                          angle=self.angle[o], divides=self.divides[o], uncertainty=self.uncertainty[o],
-                         main_axis=self.main_axis, reversed=not self.reversed)
+                         main_axis=self.main_axis, edge=self.edge, reversed=not self.reversed)
 
 
 @dataclass(frozen=True, eq=False)
@@ -455,6 +458,13 @@ def scan_landmarks(V, F=None, ends=None):
                  _candidate_text(i, cands))
     k = next(q for q, p in enumerate(tree.paths) if p.ends[1] == j)
     main, kind = _main_axis(pm, tree, k, i, j)
+    return _landmarks(tree, k, main, kind, h)
+
+
+def _landmarks(tree, k, main, kind, h, quiet=False):
+    """The :class:`Landmarks` of path ``k`` of ``tree`` about the axis ``main`` (of ``kind``); ``h`` the median
+    edge. Raises EndsError, listing the candidates, when it has fewer than two."""
+    i, j = tree.paths[k].ends
     rows = _landmark_rows(main, tree, k, h)
     if len(rows) < 2:
         cands = _candidates(tree, h)
@@ -462,7 +472,7 @@ def scan_landmarks(V, F=None, ends=None):
                         f"scans needs at least two landmarks; main vessels from end {i} with their landmarks: "
                         f"{_candidate_text(i, cands)} (choose one with ends=)")
     for r in rows:
-        if r["divides"]:
+        if r["divides"] and not quiet:
             log.warning("the main vessel divides at s = %.3g into comparable daughters (side radius %.3g): its "
                         "direction there is less well defined, the landmark's uncertainty says by how much",
                         r["s"], r["radius"])
@@ -470,7 +480,7 @@ def scan_landmarks(V, F=None, ends=None):
     return Landmarks(tree=tree, ends=(i, j), main=main, length=float(main.length), points=col["point"],
                      s=col["s"], azimuth=col["azimuth"], direction=col["direction"], radius=col["radius"],
                      branch=col["branch"].astype(np.int64), angle=col["angle"], divides=col["divides"],
-                     uncertainty=tol.TWIST_Z95 * col["sigma"], main_axis=kind)
+                     uncertainty=tol.TWIST_Z95 * col["sigma"], main_axis=kind, edge=h)
 
 
 def _match(A, B):
