@@ -620,6 +620,24 @@ MUTATIONS = {
         "            divides = side.mean_radius >= 0.1 * tol.TWIST_COMPARABLE * tree.branches[nxt].mean_radius",
         ["tests/test_twist_real.py::test_the_main_vessel_is_told_how_it_was_followed"],
     ),
+    "twist_path_averaged_over_four_times_its_reach": (
+        "vesselgp/twist.py",
+        "        sigma = tol.TWIST_PATH_SMOOTH * float(np.median(path.radii)) / step",
+        "        sigma = 4.0 * tol.TWIST_PATH_SMOOTH * float(np.median(path.radii)) / step",
+        ["tests/test_twist_real.py::test_the_tree_path_axis_is_a_helix_rmf_where_the_path_is_a_helix"],
+    ),
+    "twist_path_ends_pulled_in": (
+        "vesselgp/twist.py",
+        "        X = gaussian_filter1d(Pp, sigma, axis=0, mode=\"nearest\")[n:n + len(P)]",
+        "        X = gaussian_filter1d(P, sigma, axis=0, mode=\"nearest\")",
+        ["tests/test_twist_real.py::test_the_tree_path_axis_is_a_helix_rmf_where_the_path_is_a_helix"],
+    ),
+    "twist_crowded_at_half_the_reach": (
+        "vesselgp/twist.py",
+        "    return np.any(d < tol.TWIST_MAIN_CHORD * r_main[:, None], axis=1)",
+        "    return np.any(d < 0.5 * tol.TWIST_MAIN_CHORD * r_main[:, None], axis=1)",
+        ["tests/test_twist_real.py::test_ostia_crowd_each_other_within_the_chord_at_its_edge"],
+    ),
     "twist_flip_keeps_azimuth": (
         "vesselgp/twist.py",
         "azimuth=(-self.azimuth)[o]",

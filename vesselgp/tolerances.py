@@ -638,21 +638,25 @@ TWIST_MAIN_CHORD = 2.0
 #: Side branches whose ostia are within this many main radii along the main axis leave it together: one landmark,
 #: the wider (a segment between them would be too short to hold a twist).
 TWIST_SAME_PLACE = 0.5
+#: Where the main axis is the tree's path, its points are averaged along it over this many radii (Gaussian sigma).
+TWIST_PATH_SMOOTH = 0.5
 #: A side branch at least this fraction of the main vessel's radius past the junction makes the main vessel
 #: divide there into comparable daughters (said in the result: its direction there is less well defined).
 TWIST_COMPARABLE = 0.7
 #: Landmark uncertainty (one sigma of its azimuth, radians), calibrated on the twisted copies of real trees of
 #: issue #45 (tests/test_twist_real.py, scripts/twist_real.py): a floor for the meshing and the fit...
-TWIST_SIGMA_FLOOR = 0.0085
+TWIST_SIGMA_FLOOR = 0.006
 #: ...times the circular spread of the azimuths of the side branch's samples...
 TWIST_SIGMA_SPREAD = 1.0
 #: ...times the median edge over the samples' mean offset from the main axis (a lever a few edges long)...
-TWIST_SIGMA_EDGES = 0.03
+TWIST_SIGMA_EDGES = 0.02
 #: ...times the angle between the fitted main tangent and the chord across the junction.
 TWIST_SIGMA_TANGENT = 0.05
+#: ...and, with another side branch's ostium within TWIST_MAIN_CHORD main radii (overlapping junction zones), this.
+TWIST_SIGMA_CROWDED = 0.012
 #: One sigma (radians) of the RMF's own error per segment when the main axis is the tree's path (the chain of
 #: branch axes through the junctions; the single fit's RMF has none beyond the floor).
-TWIST_SIGMA_TREE_PATH = 0.01
+TWIST_SIGMA_TREE_PATH = 0.005
 #: A matched pair of side branches whose radii differ by more than this log ratio may not be one fiducial (a side
 #: branch fitted as one in a scan, as two leaving together in the other): one sigma (radians) of its azimuth
 #: change grows by TWIST_SIGMA_RADIUS times the excess.

@@ -14,10 +14,10 @@ do, from the side branches used as fiducials:
    branches): its RMF runs smoothly through the junctions. Where the single fit
    cannot follow the main vessel (a coronary or pulmonary tree whose main vessel
    is several generations long), the axis is the tree's path to ``ends[1]``
-   (``main_axis = "tree path"``, logged): its chain of branch axes and junction
-   links adds RMF rotation at each junction (up to 3.4 degrees per segment on the
-   synthetic pairs, against 1.1 with the single fit), which the segment
-   uncertainty carries (``TWIST_SIGMA_TREE_PATH``). ``s`` is arc length from
+   (``main_axis = "tree path"``, logged) averaged along itself over
+   ``TWIST_PATH_SMOOTH`` radii, so that its junction links' kinks do not turn
+   its RMF (:class:`PathAxis`); the segment uncertainty carries what is left
+   (``TWIST_SIGMA_TREE_PATH``). ``s`` is arc length from
    ``ends[0]``.
 2. **Landmarks.** Every side branch leaving the main path is a landmark at its
    ostium: its axis point ``TWIST_DIR_START`` main radii past the junction,
@@ -61,7 +61,9 @@ do, from the side branches used as fiducials:
    main axis (a lever a few edges long: a branch a few edges across), and
    ``eps_T`` the angle between the fitted main tangent and the chord of the main
    axis across the junction (``TWIST_MAIN_CHORD`` main radii each side: large
-   where the vessel divides and the fit cuts the corner). A matched pair whose
+   where the vessel divides and the fit cuts the corner); a landmark with another
+   ostium within ``TWIST_MAIN_CHORD`` main radii adds ``TWIST_SIGMA_CROWDED``
+   (overlapping junction zones). A matched pair whose
    side radii differ by more than ``TWIST_RADIUS_AGREE`` (log ratio) may not be
    one fiducial and adds ``TWIST_SIGMA_RADIUS`` times the excess. The
    constants (``TWIST_SIGMA_*``) are calibrated on twisted copies of real trees with exact truth (``data_gen/real_twist.py``,
@@ -80,6 +82,8 @@ import numpy as np
 
 from . import tolerances as tol
 from ._validate import mesh_arguments
+from .axis import interp_frames
+from .curves import chord_length, curve_tangents, resample_arclength, rotation_minimizing_frames
 from .errors import EndsError, NotTubularError
 from .mesh._ends_format import end_listing
 from .rotations import wrap_angle
@@ -349,6 +353,14 @@ def _landmark_sigma(spread, edges, eps_T):
                      + (tol.TWIST_SIGMA_EDGES * edges) ** 2 + (tol.TWIST_SIGMA_TANGENT * eps_T) ** 2)
 
 
+def _crowded(s, r_main):
+    """Landmarks at arc lengths ``s`` (k,) with another within ``TWIST_MAIN_CHORD`` main radii ``r_main`` (k,):
+    their junction zones overlap and the ostia perturb each other (step 5)."""
+    d = np.abs(s[:, None] - s[None, :])
+    np.fill_diagonal(d, np.inf)
+    return np.any(d < tol.TWIST_MAIN_CHORD * r_main[:, None], axis=1)
+
+
 def _landmark_rows(main, tree, k, h, quiet=False):
     """The landmarks of path ``k`` about the axis ``main`` (step 2): one row per side branch leaving it, at the
     arc length of its ostium (its axis point past the junction zone, projected on the main axis); of two within
@@ -379,6 +391,9 @@ def _landmark_rows(main, tree, k, h, quiet=False):
                              branch=c, angle=theta, divides=bool(divides), r_main=r_main,
                              sigma=sigma))
     rows.sort(key=lambda r: r["s"])
+    for r, crowded in zip(rows, _crowded(np.array([r["s"] for r in rows]), np.array([r["r_main"] for r in rows]))):
+        if crowded:
+            r["sigma"] = math.hypot(r["sigma"], tol.TWIST_SIGMA_CROWDED)
     kept = []
     for r in rows:  # two side branches leaving together: one landmark, the wider
         if kept and r["s"] - kept[-1]["s"] < tol.TWIST_SAME_PLACE * max(r["r_main"], kept[-1]["r_main"]):
@@ -409,6 +424,46 @@ def _candidate_text(root, cands, n=6):
     return ", ".join(f"({root}, {j}): {m}" for j, m, _, _ in cands[:n])
 
 
+@dataclass(frozen=True, eq=False)
+class PathAxis:
+    """A tree path smoothed into one main axis (step 1): its points averaged along it over
+    ``TWIST_PATH_SMOOTH`` radii (the junction links' kinks smoothed out), resampled at equal arc length, with
+    their RMF (double reflection, paper Section 1). The interface of a :class:`GeneralizedCylinder` that the
+    landmarks use: ``length``, ``dense_s`` (normalised), ``dense_points``, ``dense_frames``, :meth:`at`,
+    :meth:`radius_at`."""
+
+    length: float
+    dense_s: np.ndarray
+    dense_points: np.ndarray
+    dense_frames: np.ndarray
+    s: np.ndarray
+    radii: np.ndarray
+
+    @classmethod
+    def of(cls, path):
+        from scipy.ndimage import gaussian_filter1d
+
+        P = path.dense_points
+        step = path.length / (len(P) - 1)
+        sigma = tol.TWIST_PATH_SMOOTH * float(np.median(path.radii)) / step
+        n = min(int(math.ceil(4.0 * sigma)), len(P) - 1)  # extended through its ends by point reflection: the
+        Pp = np.vstack([2 * P[0] - P[n:0:-1], P, 2 * P[-1] - P[-2:-n - 2:-1]])  # ends stay where they are
+        X = gaussian_filter1d(Pp, sigma, axis=0, mode="nearest")[n:n + len(P)]
+        X = resample_arclength(X, len(P))
+        T = curve_tangents(X)
+        T, U, W = rotation_minimizing_frames(X, T, initial_normal=path.dense_frames[0][1])
+        return cls(length=float(chord_length(X)[-1]), dense_s=np.linspace(0.0, 1.0, len(X)), dense_points=X,
+                   dense_frames=np.stack([T, U, W], axis=1), s=path.s, radii=path.radii)
+
+    def at(self, s):
+        """Axis points and frames (rows T, U, V) at normalised arc lengths ``s``."""
+        return interp_frames(self.dense_s, self.dense_points, self.dense_frames, np.atleast_1d(s))
+
+    def radius_at(self, s):
+        """Radius at normalised arc lengths ``s`` (the path's)."""
+        return np.interp(np.atleast_1d(np.asarray(s, float)), self.s, self.radii)
+
+
 def _main_axis(pm, tree, k, i, j):
     """The main vessel's axis (step 1): its single fit between the ends, or the tree's path where the single fit
     cannot follow it (said in the log and in the result, whose uncertainty then includes the path's RMF)."""
@@ -417,7 +472,7 @@ def _main_axis(pm, tree, k, i, j):
     except NotTubularError as exc:  # the documented second axis (module notes, step 1), reported as main_axis
         log.warning("the main vessel between ends %d and %d is not one tube its single fit can follow (%s); its "
                     "axis is the tree's path through the junctions", i, j, str(exc).split(";")[0])
-        return tree.paths[k], "tree path"
+        return PathAxis.of(tree.paths[k]), "tree path"
 
 
 def scan_landmarks(V, F=None, ends=None):
