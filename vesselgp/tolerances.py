@@ -645,11 +645,11 @@ TWIST_PATH_SMOOTH = 0.5
 TWIST_COMPARABLE = 0.7
 #: Landmark uncertainty (one sigma of its azimuth, radians), calibrated on the twisted copies of real trees of
 #: issue #45 (tests/test_twist_real.py, scripts/twist_real.py): a floor for the meshing and the fit...
-TWIST_SIGMA_FLOOR = 0.006
+TWIST_SIGMA_FLOOR = 0.0055
 #: ...times the circular spread of the azimuths of the side branch's samples...
 TWIST_SIGMA_SPREAD = 1.0
 #: ...times the median edge over the samples' mean offset from the main axis (a lever a few edges long)...
-TWIST_SIGMA_EDGES = 0.02
+TWIST_SIGMA_EDGES = 0.015
 #: ...times the angle between the fitted main tangent and the chord across the junction.
 TWIST_SIGMA_TANGENT = 0.05
 #: ...and, with another side branch's ostium within TWIST_MAIN_CHORD main radii (overlapping junction zones), this.
