@@ -169,6 +169,10 @@ def test_cli_twist(tmp_path, pairs, capsys):
     assert abs(np.median(field[tip]) - np.degrees(p.total_twist)) <= SEG_TOL_DEG and abs(np.median(field[root])) < 1e-9
     page = (out / "report.html").read_text()
     assert "cumulative twist (deg)" in page and "landmark 1" in page and page.count("<img alt=") == 2
+    # the report states each segment's interval, as twist.json has it
+    assert "segment_uncertainty_deg" in page
+    for t, u in zip(d["segment_twist_deg"], d["segment_uncertainty_deg"]):
+        assert f"{t:+.1f} \u00b1 {u:.1f}" in page
     tube = tmp_path / "tube.ply"
     v = synthetic_vessel("arc", n_around=24)
     vg.write_mesh(tube, v.V, v.F)

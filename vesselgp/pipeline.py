@@ -1186,12 +1186,13 @@ def write_twist(out, tw, *, render=True):
                             f"{len(r.s_a)} landmarks (side branches)",
                       caption=f"Both scans at one scale, seen side-on. Numbers: the side branches (landmarks), "
                               f"matched in order along the main vessel; black: the fitted axes. Twist: the turn of "
-                              f"the landmarks' directions about the main axis from scan A to scan B, {sense}.")
+                              f"the side branches (where each lies about the main axis) from scan A to scan B, {sense}.")
         plot_cumulative_twist(out("twist_profile.png"), r.s_a, d["cumulative_twist_deg"],
                               segment_deg=d["segment_twist_deg"], segment_uncertainty_deg=d["segment_uncertainty_deg"],
                               cumulative_uncertainty_deg=d["cumulative_uncertainty_deg"],
                               caption=f"0 at landmark 1 (the first side branch from end {r.ends_a[0]}); each number on "
-                                      f"the line is that segment's twist; positive: {sense}.")
+                                      f"the line is that segment's twist \u00b1 its 95 % half-width; the band: the 95 % "
+                                      f"interval of the twist from landmark 1; positive: {sense}.")
         _twist_report(out, tw, d, sense)
     return d
 
