@@ -638,6 +638,19 @@ MUTATIONS = {
         "    return np.any(d < 0.5 * tol.TWIST_MAIN_CHORD * r_main[:, None], axis=1)",
         ["tests/test_twist_real.py::test_ostia_crowd_each_other_within_the_chord_at_its_edge"],
     ),
+    "ptn_is_the_frenet_normal": (
+        "vesselgp/network.py",
+        '("ParallelTransportNormals", fr[:, 1])',
+        '("ParallelTransportNormals", np.where(np.isfinite(N), N, fr[:, 1]))',
+        ["tests/test_vtk_outputs.py::test_parallel_transport_normals_are_the_transported_normal_of_a_helix"],
+    ),
+    "ptn_turned_by_arc_length": (
+        "vesselgp/network.py",
+        '("ParallelTransportNormals", fr[:, 1])',
+        '("ParallelTransportNormals", np.cos(0.01 * s * gc.length)[:, None] * fr[:, 1] '
+        '+ np.sin(0.01 * s * gc.length)[:, None] * fr[:, 2])',
+        ["tests/test_vtk_outputs.py::test_parallel_transport_normals_are_the_transported_normal_of_a_helix"],
+    ),
     "twist_flip_keeps_azimuth": (
         "vesselgp/twist.py",
         "azimuth=(-self.azimuth)[o]",

@@ -239,3 +239,28 @@ def test_the_ply_copies_open_in_vtk_too(cli_runs):
         assert np.allclose(vtk_to_numpy(a.GetPoints().GetData()), vtk_to_numpy(b.GetPoints().GetData()), atol=1e-6)
         rgb = vtk_to_numpy(a.GetPointData().GetScalars())
         assert rgb.shape == (a.GetNumberOfPoints(), 3) and np.array_equal(rgb, arrays(b.GetPointData())["Colors"])
+
+
+def test_parallel_transport_normals_are_the_transported_normal_of_a_helix(tmp_path):
+    """Issue #46: ParallelTransportNormals is the rotation-minimizing normal, not any vector across the tangent:
+    on the helix (8 cos t, 8 sin t, c t) (moved) its angle about the exact tangent from the closed-form RMF
+    normal (tests/_reference.py: the Frenet normal turned by minus the integrated torsion) is one constant
+    along the line, to 1 degree, where the Frenet normal would turn by the torsion times the length."""
+    from _reference import helix, signed_angle
+
+    v = synthetic_vessel("helix", radius=1.5, n_around=24, remesh=False)
+    gc = fit_generalized_cylinder(v.V, v.F)
+    write_centerlines(tmp_path / "axis.vtp", centerline_network(gc, v.V, v.F))
+    pd = read_vtp(tmp_path / "axis.vtp")
+    U = arrays(pd.GetPointData())["ParallelTransportNormals"]
+    X = vtk_to_numpy(pd.GetPoints().GetData())
+    c = 20 / (2 * np.pi)
+    inner = slice(len(X) // 8, -len(X) // 8)
+    X, U = X[inner], U[inner]
+    t = np.unwrap(np.arctan2(X[:, 1], X[:, 0] + 8.0))  # the helix's parameter at each point (its axis at x = -8)
+    t += 2 * np.pi * np.round((X[:, 2] / c - t).mean() / (2 * np.pi))
+    _, T, U_exact = helix(t, 8.0, c)
+    angle = np.degrees(np.unwrap(signed_angle(T, U_exact, U)))
+    assert np.ptp(angle) < 1.0, np.ptp(angle)
+    frenet_turn = np.degrees(c / (64 + c * c) * np.hypot(8.0, c) * np.ptp(t))
+    assert frenet_turn > 30.0  # the test can tell the RMF from the Frenet frame (or any other)
