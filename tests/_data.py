@@ -5,7 +5,9 @@ walking up from this checkout (the workspace keeps ``shared/`` beside the reposi
 """
 from __future__ import annotations
 
+import importlib.util
 import os
+import sys
 
 import numpy as np
 from pathlib import Path
@@ -35,3 +37,25 @@ def vmtk_lines(name):
     ref = np.load(local if local.is_file() else REAL / "vmtk" / f"{name}.npz")
     return [(ref[f"line{k}_points"].astype(np.float64), ref[f"line{k}_radius"].astype(np.float64))
             for k in range(sum(f.endswith("_points") for f in ref.files))]
+
+
+def decimated(V, F, fraction):
+    """pymeshlab's quadric edge collapse of (V, F) to ``fraction`` of its faces (topology and boundary kept)."""
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(V, F))
+    ms.meshing_decimation_quadric_edge_collapse(targetperc=fraction, preservetopology=True, preserveboundary=True)
+    m = ms.current_mesh()
+    return m.vertex_matrix().astype(np.float64), m.face_matrix().astype(np.int64)
+
+
+def real_twist():
+    """``data_gen/real_twist.py`` (twisted copies of the real trees with VMTK's truth), loaded once."""
+    if "real_twist" not in sys.modules:
+        path = Path(__file__).resolve().parents[1] / "data_gen" / "real_twist.py"
+        spec = importlib.util.spec_from_file_location("real_twist", path)
+        mod = importlib.util.module_from_spec(spec)
+        sys.modules["real_twist"] = mod  # dataclasses look their module up
+        spec.loader.exec_module(mod)
+    return sys.modules["real_twist"]

@@ -18,18 +18,10 @@ from vesselgp import tolerances as tol
 from vesselgp.prepared import PreparedMesh
 from vesselgp.synthetic_anatomy import capped_arch
 
+from _data import decimated
+
 #: every true cap found within this many of its radii of its true centre, its radius within this fraction
 CENTER_RADII, RADIUS_REL = 0.1, 0.05
-
-
-def _decimated(V, F, fraction):
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(V, F))
-    ms.meshing_decimation_quadric_edge_collapse(targetperc=fraction, preservetopology=True, preserveboundary=True)
-    m = ms.current_mesh()
-    return m.vertex_matrix().astype(np.float64), m.face_matrix().astype(np.int64)
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +31,7 @@ def arches():
     times), its wall leaving the cap at up to 38 degrees; and with a sinus of 1.5, whose root flares too fast
     behind its valve plane for its cap's rim to be the wall's all round."""
     V, F, truth, caps = capped_arch(sinus=0.45)
-    Vd, Fd = _decimated(V, F, 0.3)
+    Vd, Fd = decimated(V, F, 0.3)
     return {"fine": (V, F, truth, caps), "decimated": (Vd, Fd, truth, caps), "steep": capped_arch(sinus=0.7),
             "flared": capped_arch(sinus=1.5)}
 

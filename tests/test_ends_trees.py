@@ -19,6 +19,7 @@ from vesselgp.mesh import VesselEnd, clean_mesh, mesh_topology, select_ends, ves
 from vesselgp.mesh._ends_format import format_point
 from vesselgp.mesh._ends_staircase import staircase_stats
 from vesselgp.synthetic import synthetic_vessel
+from vesselgp.synthetic_anatomy import clip_and_cap  # noqa: F401 (test_tree imports it from here)
 from vesselgp.synthetic_tree import synthetic_tree
 
 from _data import REAL
@@ -145,64 +146,6 @@ def random_rigid(rng):
     if np.linalg.det(Q) < 0:
         Q[:, 0] *= -1
     return Q, rng.normal(size=3) * 20
-
-
-def clip_and_cap(V, F, center, direction, radius, behind):
-    """Cut the tip at ``center`` by the plane ``behind`` radii behind it (across ``direction``)
-    and close the cut with a flat fan: a capped outlet. Only the part within a few radii of
-    ``center`` is cut. Returns V, F and the cap's true centre (on the plane, on the axis)."""
-    n = direction / np.linalg.norm(direction)
-    q = center - behind * radius * n
-    V = V.copy()
-    phi = (V - q) @ n
-    h = np.median(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1))
-    local = np.linalg.norm(V - center, axis=1) < (behind + 2.0) * radius
-    snap = local & (np.abs(phi) < 0.05 * h)  # onto the plane: no sliver triangles
-    V[snap] -= np.outer(phi[snap], n)
-    phi[snap] = 0.0
-    front = local & (phi > 0)
-    nf = front[F].sum(axis=1)
-    out = [F[nf == 0]]
-    W = list(V)
-    cache = {}
-
-    def cross(a, b):  # the plane's crossing of edge a (in front) - b (behind or on it)
-        if phi[b] == 0:
-            return b
-        key = (min(a, b), max(a, b))
-        if key not in cache:
-            t = phi[a] / (phi[a] - phi[b])
-            W.append(V[a] + t * (V[b] - V[a]))
-            cache[key] = len(W) - 1
-        return cache[key]
-
-    for f in F[(nf == 1) | (nf == 2)]:
-        fr = front[f]
-        if fr.sum() == 2:  # keep the back vertex and the two crossings
-            s = int(np.flatnonzero(~fr)[0])
-            a, b, c = f[s], f[(s + 1) % 3], f[(s + 2) % 3]
-            out.append([[a, cross(b, a), cross(c, a)]])
-        else:  # one vertex in front: keep the quad behind
-            s = int(np.flatnonzero(fr)[0])
-            a, b, c = f[s], f[(s + 1) % 3], f[(s + 2) % 3]
-            x, y = cross(a, b), cross(a, c)
-            out.append([[x, b, c], [x, c, y]])
-    W = np.array(W)
-    F2 = np.vstack(out).astype(np.int64)
-    on = np.abs((W - q) @ n) < 1e-12 * (1 + np.abs(q).max())
-    F2 = F2[(F2[:, 0] != F2[:, 1]) & (F2[:, 1] != F2[:, 2]) & (F2[:, 2] != F2[:, 0]) & ~on[F2].all(axis=1)]
-    used = np.unique(F2)
-    remap = np.full(len(W), -1)
-    remap[used] = np.arange(len(used))
-    W, F2 = W[used], remap[F2]
-    loops = [lp for lp in mesh_topology(F2, len(W)).boundary_loops
-             if np.abs((W[lp] - q) @ n).max() < 1e-9 * (1 + np.abs(q).max())]
-    assert len(loops) == 1
-    lp = loops[0]
-    c = W[lp].mean(axis=0)
-    W = np.vstack([W, c])
-    cap = np.c_[np.full(len(lp), len(W) - 1), np.roll(lp, -1), lp]
-    return W, np.vstack([F2, cap]), q
 
 
 def voxel_faces(occ, spacing=(1.0, 1.0, 1.0)):

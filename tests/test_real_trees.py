@@ -20,7 +20,7 @@ import vesselgp
 from vesselgp import tolerances as tol
 from vesselgp.curves import chord_length
 
-from _data import REAL, vmtk_lines
+from _data import REAL, decimated, vmtk_lines
 
 MM = {"gmsh_carotid-bifurcation_open.stl": 10.0, "gmsh_aortic-arch_open.stl": 1000.0}
 FITS = ["vmtk_abdominal_aorta_iliac_bifurcation_open.stl", "cardiopinns_aortic-arch-4dflow_capped.stl",
@@ -72,16 +72,6 @@ def remeshed(V, F, factor):
     return m.vertex_matrix().astype(np.float64), m.face_matrix().astype(np.int64)
 
 
-def _decimated(V, F, fraction):
-    """pymeshlab's quadric edge collapse of (V, F) to ``fraction`` of its faces (topology and boundary kept)."""
-    import pymeshlab
-    ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(V, F))
-    ms.meshing_decimation_quadric_edge_collapse(targetperc=fraction, preservetopology=True, preserveboundary=True)
-    m = ms.current_mesh()
-    return m.vertex_matrix().astype(np.float64), m.face_matrix().astype(np.int64)
-
-
 @functools.lru_cache(maxsize=None)
 def _fitted(param):
     """(name, V, F, tree, VMTK's lines) of a real mesh, or of one made coarser (``name@how factor``)."""
@@ -90,7 +80,7 @@ def _fitted(param):
     V = V * MM.get(name, 1.0)
     if param in REMESHED:
         how, factor = REMESHED[param]
-        V, F = (remeshed if how == "remeshed" else _decimated)(V, F, factor)
+        V, F = (remeshed if how == "remeshed" else decimated)(V, F, factor)
     return name, V, F, vesselgp.fit_vessel_tree(V, F), vmtk_lines(name)
 
 
@@ -338,7 +328,7 @@ def test_centre_lines_of_a_coarse_real_tree_reach_every_end():
 
     name = "xrayangio_xcat-coronary-tree_open.stl"
     V, F = vesselgp.read_mesh(REAL / name)[:2]
-    V, F = _decimated(V, F, 0.3)
+    V, F = decimated(V, F, 0.3)
     ends = vesselgp.vessel_ends(V, F)
     assert len(ends) == 11
     loops = igl.boundary_loop_all(F)
@@ -369,7 +359,7 @@ def test_a_stub_too_coarse_to_fit_takes_its_centre_line(caplog):
 
     name = "gmsh_aortic-arch_open.stl"
     V, F = vesselgp.read_mesh(REAL / name)[:2]
-    V, F = _decimated(V * MM[name], F, 0.3)
+    V, F = decimated(V * MM[name], F, 0.3)
     with caplog.at_level(logging.INFO, logger="vesselgp.tree"):
         tree = vesselgp.fit_vessel_tree(V, F)
     # a singular branch takes the centre line; its abandoned fit's last step is infinite (VesselTree.branch_fit)

@@ -7,10 +7,7 @@ tangent, face orientations against the truth's own rotations, distances by libig
 """
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
-from pathlib import Path
 
 import igl
 import numpy as np
@@ -18,7 +15,7 @@ import pytest
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from _data import REAL, vmtk_lines
+from _data import REAL, real_twist, vmtk_lines
 
 RENAL = "gmsh_abdominal-aorta-renal-iliac_open.stl"
 XCAT = "xrayangio_xcat-coronary-tree_open.stl"
@@ -30,16 +27,7 @@ pytestmark = pytest.mark.skipif(not all((REAL / n).is_file() and (REAL / "vmtk" 
                                 reason=f"real meshes or their VMTK lines not in {REAL}")
 
 
-def _load():
-    path = Path(__file__).resolve().parents[1] / "data_gen" / "real_twist.py"
-    spec = importlib.util.spec_from_file_location("real_twist", path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["real_twist"] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)
-    return mod
-
-
-rt = _load()
+rt = real_twist()
 
 
 def _arc(P):

@@ -12,10 +12,6 @@ at least 90 % of segments. The wider sweep (9 cases) is ``scripts/twist_real.py`
 """
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -24,7 +20,7 @@ from vesselgp import tolerances as tol
 from vesselgp.errors import EndsError
 from vesselgp.rotations import wrap_angle
 from vesselgp.twist import _segment_uncertainty
-from _data import REAL
+from _data import REAL, real_twist
 from _docs import figure, table
 
 XCAT = "xrayangio_xcat-coronary-tree_open.stl"
@@ -54,15 +50,6 @@ DOCS = {label: (figure(_DOCS[row][1]), float(_DOCS[row][2].split("-")[-1])) for 
 }.items()}
 
 
-def _generator():
-    path = Path(__file__).resolve().parents[1] / "data_gen" / "real_twist.py"
-    spec = importlib.util.spec_from_file_location("real_twist", path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["real_twist"] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def measured_against_truth(case):
     """twist_between on the case with the main vessel's ends given; (result, truth per segment in radians)."""
     near = lambda ends, p: int(np.argmin([np.linalg.norm(e.center - p) for e in ends]))  # noqa: E731
@@ -82,7 +69,7 @@ def measured_against_truth(case):
 
 @pytest.fixture(scope="module")
 def runs():
-    rt = _generator()
+    rt = real_twist()
     out = {}
     for k, (name, line, kind, total) in enumerate(CASES.values()):
         L = rt.arc_length(rt.load_tree(name)[2][line][0])[-1]

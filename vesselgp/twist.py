@@ -130,8 +130,6 @@ class Landmarks:
         Half-width (radians) of the 95 % interval of each azimuth (step 5).
     main_axis : str
         ``"single fit"`` or ``"tree path"`` (step 1).
-    edge : float
-        The scan's median edge.
     reversed : bool
         The main axis runs from the tree's path end back to its root (``s``
         measured from ``ends[0]`` all the same).
@@ -151,7 +149,6 @@ class Landmarks:
     divides: np.ndarray
     uncertainty: np.ndarray
     main_axis: str
-    edge: float
     reversed: bool = False
 
     def flipped(self):
@@ -161,7 +158,7 @@ class Landmarks:
                          points=self.points[o], s=(self.length - self.s)[o], azimuth=(-self.azimuth)[o],
                          direction=self.direction[o], radius=self.radius[o], branch=self.branch[o],
                          angle=self.angle[o], divides=self.divides[o], uncertainty=self.uncertainty[o],
-                         main_axis=self.main_axis, edge=self.edge, reversed=not self.reversed)
+                         main_axis=self.main_axis, reversed=not self.reversed)
 
 
 @dataclass(frozen=True, eq=False)
@@ -535,7 +532,7 @@ def _landmarks(tree, k, main, kind, h, quiet=False):
     return Landmarks(tree=tree, ends=(i, j), main=main, length=float(main.length), points=col["point"],
                      s=col["s"], azimuth=col["azimuth"], direction=col["direction"], radius=col["radius"],
                      branch=col["branch"].astype(np.int64), angle=col["angle"], divides=col["divides"],
-                     uncertainty=tol.TWIST_Z95 * col["sigma"], main_axis=kind, edge=h)
+                     uncertainty=tol.TWIST_Z95 * col["sigma"], main_axis=kind)
 
 
 def _match(A, B):
