@@ -616,8 +616,8 @@ MUTATIONS = {
     ),
     "twist_divides_at_a_tenth_of_the_radius": (
         "vesselgp/twist.py",
-        "            divides = side.mean_radius >= tol.TWIST_COMPARABLE * tree.branches[nxt].mean_radius",
-        "            divides = side.mean_radius >= 0.1 * tol.TWIST_COMPARABLE * tree.branches[nxt].mean_radius",
+        "    return bool(side_radius >= tol.TWIST_COMPARABLE * next_radius)",
+        "    return bool(side_radius >= 0.1 * tol.TWIST_COMPARABLE * next_radius)",
         ["tests/test_twist_real.py::test_the_main_vessel_is_told_how_it_was_followed"],
     ),
     "twist_path_averaged_over_four_times_its_reach": (

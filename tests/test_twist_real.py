@@ -211,3 +211,22 @@ def test_the_tree_path_axis_is_a_helix_rmf_where_the_path_is_a_helix():
     assert np.max(np.degrees(np.arccos(np.clip(np.sum(fr[:, 0] * Ti, axis=1), -1, 1)))) < 0.1
     turn = np.degrees(signed_angle(Ti, Ui, fr[:, 1]))
     assert np.ptp(turn) < 0.1  # the same RMF up to its starting normal
+
+
+@pytest.mark.parametrize("factor,together", [(0.99, True), (1.01, False)])
+def test_side_branches_leave_together_at_the_edge(factor, together):
+    """Two ostia TWIST_SAME_PLACE main radii apart (times 0.99 or 1.01) are one landmark, the wider, or two."""
+    from vesselgp.twist import _together
+
+    rows = [dict(s=10.0, r_main=2.0, radius=0.5, branch=1),
+            dict(s=10.0 + factor * tol.TWIST_SAME_PLACE * 2.0, r_main=2.0, radius=0.8, branch=2)]
+    kept = _together(rows, quiet=True)
+    assert [r["branch"] for r in kept] == ([2] if together else [1, 2])
+
+
+@pytest.mark.parametrize("factor,divides", [(0.99, False), (1.01, True)])
+def test_the_main_vessel_divides_at_the_edge(factor, divides):
+    """A side branch TWIST_COMPARABLE times the main vessel past the junction (times 0.99 or 1.01)."""
+    from vesselgp.twist import _divides
+
+    assert _divides(factor * tol.TWIST_COMPARABLE * 3.0, 3.0) == divides

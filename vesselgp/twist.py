@@ -358,6 +358,28 @@ def _crowded(s, r_main):
     return np.any(d < tol.TWIST_MAIN_CHORD * r_main[:, None], axis=1)
 
 
+def _divides(side_radius, next_radius):
+    """The main vessel divides into comparable daughters: the side branch at least ``TWIST_COMPARABLE`` times the
+    radius of the main vessel past the junction (step 2)."""
+    return bool(side_radius >= tol.TWIST_COMPARABLE * next_radius)
+
+
+def _together(rows, quiet=False):
+    """Landmark rows (sorted by ``s``) with side branches whose ostia lie within ``TWIST_SAME_PLACE`` main radii
+    merged: they leave the main vessel together, and the wider is the landmark (step 2)."""
+    kept = []
+    for r in rows:  # two side branches leaving together: one landmark, the wider
+        if kept and r["s"] - kept[-1]["s"] < tol.TWIST_SAME_PLACE * max(r["r_main"], kept[-1]["r_main"]):
+            if not quiet:
+                log.warning("side branches %d and %d leave the main vessel together (s = %.3g and %.3g); the wider "
+                            "is the landmark", kept[-1]["branch"], r["branch"], kept[-1]["s"], r["s"])
+            if r["radius"] > kept[-1]["radius"]:
+                kept[-1] = r
+            continue
+        kept.append(r)
+    return kept
+
+
 def _landmark_rows(main, tree, k, h, quiet=False):
     """The landmarks of path ``k`` about the axis ``main`` (step 2): one row per side branch leaving it, at the
     arc length of its ostium (its axis point past the junction zone, projected on the main axis); of two within
@@ -379,7 +401,7 @@ def _landmark_rows(main, tree, k, h, quiet=False):
                     log.warning("side branch %d leaves the main axis within %g deg of its tangent: its azimuth is "
                                 "undefined, it is not used as a landmark", c, tol.TWIST_MIN_ANGLE_DEG)
                 continue
-            divides = side.mean_radius >= tol.TWIST_COMPARABLE * tree.branches[nxt].mean_radius
+            divides = _divides(side.mean_radius, tree.branches[nxt].mean_radius)
             az, spread, offset, _ = _side_azimuth(main, side, start)
             sigma = _landmark_sigma(spread, h / offset, eps_T)
             log.debug("landmark s=%.1f theta=%.1f eps_T=%.2f spread=%.2f h/offset=%.3f sigma=%.2f deg", s,
@@ -391,16 +413,7 @@ def _landmark_rows(main, tree, k, h, quiet=False):
     for r, crowded in zip(rows, _crowded(np.array([r["s"] for r in rows]), np.array([r["r_main"] for r in rows]))):
         if crowded:
             r["sigma"] = math.hypot(r["sigma"], tol.TWIST_SIGMA_CROWDED)
-    kept = []
-    for r in rows:  # two side branches leaving together: one landmark, the wider
-        if kept and r["s"] - kept[-1]["s"] < tol.TWIST_SAME_PLACE * max(r["r_main"], kept[-1]["r_main"]):
-            if not quiet:
-                log.warning("side branches %d and %d leave the main vessel together (s = %.3g and %.3g); the wider "
-                            "is the landmark", kept[-1]["branch"], r["branch"], kept[-1]["s"], r["s"])
-            if r["radius"] > kept[-1]["radius"]:
-                kept[-1] = r
-            continue
-        kept.append(r)
+    kept = _together(rows, quiet)
     for r in kept:
         del r["r_main"]
     return kept
