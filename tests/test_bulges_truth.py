@@ -111,6 +111,7 @@ def test_a_dome_wider_than_the_wide_end_is_a_blind_sac_at_its_place(wide_sac):
     (c, out, rs), = pm.sacs
     assert rs > tol.ENDS_SAC_RATIO * R1 and abs(rs - 2.7) < 0.1 * 2.7
     assert abs(c[0] - XC) < 0.1 * rs and abs(c[2]) < 0.1 * rs and out @ [0.0, 1.0, 0.0] > np.cos(np.radians(30))
+    assert abs(c[1] - (4.0 / 3.0 + 2.7)) < 0.15 * rs, c  # the dome's centre, inside it (its pole is 2.7 beyond)
 
 
 def _straight_axis(x_start, x_end, radius_of_x, n=2401):
@@ -441,7 +442,8 @@ def test_placing_a_curved_tapered_vessel_moves_its_other_end_rigidly_with_it(joi
 def test_cli_join_place_0_puts_the_moving_end_on_the_other_end_facing_it(join_pair, tmp_path):
     """`vesselgp join A --end I --onto B --other-end J --place 0`: in the written optimum.ply the joined ring's
     centre is the other end's (0, 0, 12) and its outward normal is -z (opposite the other end's +z); the held end's
-    ring is the input's moved by the true placement (and by result.json's matrix), 10 sqrt 2 from the joined end."""
+    ring is the input's moved by the true placement (and by result.json's matrix), 10 sqrt 2 from the joined end.
+    The report's Numbers table names each row by its path in result.json ("placement.turned_deg") with its value."""
     p = join_pair
     vg.write_mesh(tmp_path / "a.ply", p.V, p.a.F)
     vg.write_mesh(tmp_path / "b.ply", p.b.V, p.b.F)
@@ -460,3 +462,27 @@ def test_cli_join_place_0_puts_the_moving_end_on_the_other_end_facing_it(join_pa
     assert np.allclose(p.V[p.held] @ M[:3, :3].T + M[:3, 3], held, atol=0.02)
     chord = np.linalg.norm(p.c0 - p.c1)
     assert np.linalg.norm(_circle(held)[0] - _circle(ring)[0]) == pytest.approx(chord, rel=0.01)
+    # the page's Numbers table: each row named by its path in result.json ("placement.turned_deg"), its value there
+    import html as _html
+    import re as _re
+
+    res = json.loads((out / "result.json").read_text())
+    from vesselgp.html_report import write_report_html
+
+    write_report_html(tmp_path / "report.html", "join", [], numbers=res)  # as `vesselgp join` tabulates its result
+    rows = _re.findall(r"<tr><td>(.*?)</td><td>(.*?)</td></tr>", (tmp_path / "report.html").read_text())
+    assert any(k.startswith("placement.") for k, _ in rows), rows
+    for k, v in rows:
+        x = res
+        for part in _html.unescape(k).split("."):
+            x = x[part]
+        v = _html.unescape(v)
+        if isinstance(x, str):
+            assert v == x, k
+            continue
+        want = x if isinstance(x, list) else [x]
+        got = v.split(", ")
+        assert len(got) == len(want), (k, v, x)
+        for g, w in zip(got, want):
+            assert float(g) == pytest.approx(float(w), rel=1e-5, abs=1e-12) if isinstance(w, (int, float)) and \
+                not isinstance(w, bool) else g == str(w), (k, g, w)

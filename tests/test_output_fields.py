@@ -1075,3 +1075,46 @@ def test_batch_base_columns_results_csv_and_row_json(cohort, helix, torsion, sca
     assert det["main_path"] == 0 and path["min_radius"] == pytest.approx(1.0, rel=0.02)
     assert path["max_radius"] == pytest.approx(2.0, rel=0.02) and path["length"] == pytest.approx(
         helix["v"].truth.length, rel=0.005)
+
+
+def test_generate_paper_cases_pre_rotation_turns_the_target_normal_by_that_many_degrees(tmp_path):
+    """`vesselgp generate --paper-cases --pre-rotation 30` (degrees on the command line): case 1's target normal in
+    case.json is the one written without it turned by +30 degrees about the target tangent (right hand), the
+    rest of the case unchanged; case.json's pre_rotation is that angle in radians (the API's unit)."""
+    cases = {}
+    for deg in (0.0, 30.0):
+        out = tmp_path / f"pre{deg:g}"
+        assert main(["generate", "--paper-cases", "--resolution", "0.3", "--pre-rotation", f"{deg:g}",
+                     "-o", str(out), "-q"]) == 0
+        cases[deg] = json.loads((out / "case1" / "case.json").read_text())
+    a, b = cases[0.0], cases[30.0]
+    t = np.asarray(a["target_tangent"])
+    assert np.allclose(b["target_tangent"], t) and np.allclose(b["target_origin"], a["target_origin"])
+    n0, n1 = np.asarray(a["target_normal"]), np.asarray(b["target_normal"])
+    turn = np.degrees(np.arctan2(np.cross(n0, n1) @ t, n0 @ n1))
+    assert turn == pytest.approx(30.0, abs=0.01)
+    assert b["pre_rotation"] == pytest.approx(np.radians(30.0), rel=1e-9) and a["pre_rotation"] == 0.0
+
+
+def test_join_vtp_alpha_is_the_twist_at_each_vertex_of_the_optimum_and_of_the_large_torsion(join):
+    """optimum.vtp and large_torsion.vtp carry alpha_deg (Eq. 6, degrees) per vertex of the moved vessel: at the
+    optimum no twist anywhere (the end put back: |alpha| < 1 degree); at the large torsion a uniform twist over the
+    free length, affine in each vertex's exact rest s (1 degree), its end-to-end change (moving end s = 0 less
+    held end s = 1) the reported total_twist_deg, +70 (the shading is the twist, not its radians nor its rate)."""
+    import vtk
+    from vtk.util.numpy_support import vtk_to_numpy
+
+    def alpha(name):
+        r = vtk.vtkXMLPolyDataReader()
+        r.SetFileName(str(join["dir"] / name))
+        r.Update()
+        return vtk_to_numpy(r.GetOutput().GetPointData().GetArray("alpha_deg"))
+
+    s = join["v"].truth.vertex_s
+    assert np.abs(alpha("optimum.vtp")).max() < 1.0
+    a = alpha("large_torsion.vtp")
+    free = (s > 0.12) & (s < 0.88)  # away from the held ring and the moved ring's blend
+    k, c = np.polyfit(s[free], a[free], 1)
+    assert np.abs(a[free] - (k * s[free] + c)).max() < 1.0
+    assert -k == pytest.approx(join["r"]["large_torsion"]["total_twist_deg"], abs=1.5)
+    assert -k == pytest.approx(JOIN_LARGE, abs=1.5)

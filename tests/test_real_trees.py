@@ -475,6 +475,13 @@ def test_the_intracranial_sac_is_found_and_its_wall_described_by_it():
     V, F = vesselgp.read_mesh(REAL / name)[:2]
     pm = PreparedMesh(V, F)
     assert len(pm.ends) == 3 and len(pm.sacs) == 1
+    # the sac's dome: its centre inside the lumen, as deep as VMTK's widest sphere in the lobe is wide, and its
+    # pole, a radius out along its direction, on the surface (issue #46: a centre put outside, beyond the pole)
+    (c, out, rs), = pm.sacs
+    from vesselgp.inside import axis_winding
+
+    w, dist = axis_winding(V, F, np.vstack([c, c + rs * out]))
+    assert abs(w[0]) > 0.5 and dist[0] > 0.5 * rs and dist[1] < 0.1 * rs, (w, dist, rs)
     tree = vesselgp.fit_vessel_tree(pm)
     lines = vmtk_lines(name)
     P, R = np.vstack([p for p, _ in lines]), np.concatenate([r for _, r in lines])

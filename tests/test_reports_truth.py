@@ -428,3 +428,22 @@ def test_a_rim_met_by_the_wall_on_92_percent_of_its_length_is_a_cap_however_its_
     top = _top(pm)
     assert top.kind == "cap" and not pm.flat_patches
     assert np.linalg.norm(top.center) < 0.02 and abs(top.radius - 1.0) < 0.02
+
+
+def test_twist_profile_png_numbers_the_landmarks_from_one_and_writes_each_segment_at_its_middle(tmp_path, monkeypatch):
+    """twist_profile.png: landmark j (counted from 1, as twist.csv, the scans' picture and the report count them)
+    is written at its own (s, cumulative twist); each segment's twist, signed, at the middle of its two landmarks.
+    Truth: the numbers given (uneven spacing, a twist that turns back)."""
+    from vesselgp import viz
+
+    figs = []
+    monkeypatch.setattr(viz, "_save_png", lambda fig, path, dpi, **kw: figs.append(fig))
+    s, c = np.array([0.0, 7.0, 31.0, 40.0]), np.array([0.0, -12.5, 20.0, 18.0])
+    viz.plot_cumulative_twist(tmp_path / "t.png", s, c)
+    (ax,) = [a for a in figs[0].axes if a.texts]
+    texts = {t.get_text(): np.asarray(t.xy, float) for t in ax.texts if hasattr(t, "xy")}
+    for j in range(len(s)):
+        assert np.allclose(texts[str(j + 1)], [s[j], c[j]]), (j, texts)
+    for j in range(len(s) - 1):
+        label = f"{c[j + 1] - c[j]:+.1f}\u00b0"
+        assert np.allclose(texts[label], [0.5 * (s[j] + s[j + 1]), 0.5 * (c[j] + c[j + 1])]), (label, texts)
