@@ -447,3 +447,91 @@ def test_twist_profile_png_numbers_the_landmarks_from_one_and_writes_each_segmen
     for j in range(len(s) - 1):
         label = f"{c[j + 1] - c[j]:+.1f}\u00b0"
         assert np.allclose(texts[label], [0.5 * (s[j] + s[j + 1]), 0.5 * (c[j] + c[j + 1])]), (label, texts)
+
+
+# --------------------------------------------------------------------------- report.html of a tree
+
+
+@pytest.fixture(scope="module")
+def tree_page(tmp_path_factory):
+    """A 3-tip tree whose first child splits again (unequal paths, two levels), through `vesselgp fit`."""
+    from vesselgp.synthetic_tree import synthetic_tree
+
+    d = tmp_path_factory.mktemp("tree")
+    t = synthetic_tree(parents=(-1, 0, 0, 1, 1), voxel=0.55, seed=2)
+    vg.write_mesh(d / "tree.ply", t.V, t.F)
+    with pytest.MonkeyPatch.context() as mp:
+        _no_png(mp)
+        run_fit(d / "tree.ply", OutputFolder(d / "out"))
+    page = (d / "out" / "report.html").read_text()
+    return dict(t=t, traces=plotly_traces(page), tree=json.loads((d / "out" / "tree.json").read_text()))
+
+
+def test_tree_report_labels_each_end_at_the_exact_end_tree_json_gives_that_number(tree_page):
+    """Truth: the generator's end centres (the root's loop centre, each tip's dome centre). 'end i' sits within a
+    fifth of that end's radius of the exact end whose centre tree.json lists as end i; 'end 0' is the exact root
+    (the widest end), and every exact end has its label."""
+    t, labels, ends = tree_page["t"], _labels(tree_page["traces"]), tree_page["tree"]["ends"]
+    assert sorted(labels) == [f"end {i}" for i in range(len(t.truth.ends))]
+    exact = np.array([e.center for e in t.truth.ends])
+    used = set()
+    for i, e in enumerate(ends):
+        j = int(np.argmin(np.linalg.norm(exact - np.asarray(e["center"]), axis=1)))
+        used.add(j)
+        assert np.linalg.norm(labels[f"end {i}"] - exact[j]) < 0.2 * t.truth.ends[j].radius, (i, j)
+    assert used == set(range(len(exact)))
+    root = next(j for j, e in enumerate(t.truth.ends) if e.kind == "open")
+    assert np.linalg.norm(labels["end 0"] - exact[root]) < 0.2 * t.truth.ends[root].radius
+
+
+def test_tree_report_shading_is_the_distance_to_the_axes_and_its_lines_are_the_exact_centre_lines(tree_page):
+    """Truth: away from the junctions (beyond 2 radii of each), a wall vertex's distance to the nearest branch axis
+    is the exact radius of the nearest exact centre line there (5 %); the colour range spans the shading; every
+    drawn axis point away from the junctions lies within 5 % of the local radius of an exact centre line (a fifth in
+    the junction zones, where the children are led in)."""
+    t = tree_page["t"]
+    X, value, m = _mesh_trace(tree_page["traces"])
+    dist, r, _, _ = t.truth.nearest(X)
+    J = np.array([b.centers[0] for b in t.truth.branches if b.parent >= 0])  # where each child leaves its parent
+    far = np.min(np.linalg.norm(X[:, None] - J[None], axis=2), axis=1) > 2.0 * r
+    tips = np.array([e.center for e in t.truth.ends if e.kind == "rounded"])
+    far &= np.min(np.linalg.norm(X[:, None] - tips[None], axis=2), axis=1) > 1.0 * r  # domes: the axis ends inside
+    assert far.sum() > 0.3 * len(X)
+    assert np.percentile(np.abs(value[far] - r[far]) / r[far], 95) < 0.05
+    assert m["cmin"] <= value.min() + 1e-6 and m["cmax"] >= value.max() - 1e-6
+    assert m["cmax"] - m["cmin"] < 1.5 * (value.max() - value.min()) + 1e-9
+    for line in (q for q in tree_page["traces"] if q["type"] == "scatter3d" and q.get("mode") == "lines"):
+        P = np.c_[_decode(line["x"]), _decode(line["y"]), _decode(line["z"])]
+        P = P[np.isfinite(P).all(axis=1)]
+        d, rr, _, _ = t.truth.nearest(P)
+        away = np.min(np.linalg.norm(P[:, None] - J[None], axis=2), axis=1) > 2.0 * rr  # junction zones: led in
+        assert np.max(d[away] / rr[away]) < 0.05, np.max(d[away] / rr[away])
+        assert np.max(d / rr) < 0.2
+
+
+def test_torsion_report_shading_is_the_imposed_twist_in_degrees_from_the_first_end_and_its_range_symmetric(tmp_path):
+    """Truth: a straight tube tapered 2 -> 1 twisted by alpha(s) = 70 s^2 degrees (non-linear, one-sided). The
+    page's mesh is the deformed vessel, each vertex shaded by alpha in degrees, 0 at the end where the drawn axis
+    starts: alpha(s) - alpha(s0) at its exact s (1 degree; radians, a reversed end or sign are off by tens); the
+    colour range is +-max|alpha|, symmetric about 0 (white), as the caption says."""
+    from vesselgp.pipeline import run_torsion
+
+    phi = np.radians(70.0)
+    v = synthetic_vessel("straight", radius=lambda s: 2.0 - s, n_around=16, remesh=False)
+    vg.write_mesh(tmp_path / "rest.ply", v.V, v.F)
+    vg.write_mesh(tmp_path / "def.ply", deform_synthetic(v, twist=lambda s: phi * np.asarray(s) ** 2), v.F)
+    with pytest.MonkeyPatch.context() as mp:
+        _no_png(mp)
+        mp.setattr(pipeline, "plot_torsion_profile", lambda *a, **k: None)
+        run_torsion(tmp_path / "rest.ply", tmp_path / "def.ply", OutputFolder(tmp_path / "out"))
+    traces = plotly_traces((tmp_path / "out" / "report.html").read_text())
+    X, value, m = _mesh_trace(traces)
+    i = cKDTree(v.V).query(X)[1]  # the straight deformed copy keeps each vertex's place along the axis
+    s = v.truth.vertex_s[i]
+    (line,) = [t for t in traces if t["type"] == "scatter3d" and t.get("mode") == "lines"]
+    start = np.array([_decode(line[k])[0] for k in "xyz"])
+    forward = np.linalg.norm(start - v.truth.centers[0]) < np.linalg.norm(start - v.truth.centers[-1])
+    want = np.degrees(phi * s ** 2 - (0.0 if forward else phi))  # alpha(s) - alpha(first end)
+    assert np.abs(value - want).max() < 1.0, np.abs(value - want).max()
+    mx = np.abs(value).max()
+    assert mx > 60.0 and m["cmin"] == pytest.approx(-mx, rel=1e-3) and m["cmax"] == pytest.approx(mx, rel=1e-3)
