@@ -32,6 +32,24 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    "sac_neighbour_at_the_neck": (
+        "vesselgp/bulges.py",
+        "    return float(np.median(d[near])) if near.any() else fitted",
+        "    return fitted",
+        ["tests/test_bulges_truth.py"],
+    ),
+    "twist_side_branch_at_its_junction": (
+        "vesselgp/twist.py",
+        "            out[c] = _ostium(main, tree.branches[c], r_j)[0]",
+        "            out[c] = _project_s(main, J)",
+        ["tests/test_reports_truth.py::test_twist_field_on_a_side_branch_is_the_twist_where_it_leaves"],
+    ),
+    "twist_subtree_not_where_its_side_branch_leaves": (
+        "vesselgp/twist.py",
+        "        out[c] = out[b] if b >= 0 else np.nan",
+        "        out[c] = out[c]",
+        ["tests/test_twist_real.py::test_default_ends_run_on_every_real_tree_with_three_side_branches"],
+    ),
     # --- issue #46: a reviewer's 30 guesses, written from the library code without reading the tests;
     # --- 19 caught by the suite before the #46 tests, all 30 after (closing note of #46)
     # axis.csv: the "arclength" column runs from the ends[1] end (mm from the wrong end) while "s" runs from ends[0].

@@ -39,6 +39,14 @@ def vmtk_lines(name):
             for k in range(sum(f.endswith("_points") for f in ref.files))]
 
 
+def needs_real(*names):
+    """A pytest mark that skips unless every real mesh ``names`` and its VMTK lines are at hand."""
+    import pytest
+
+    return pytest.mark.skipif(not all((REAL / n).is_file() and (REAL / "vmtk" / f"{n}.npz").is_file() for n in names),
+                              reason=f"real meshes or their VMTK lines not in {REAL}")
+
+
 def decimated(V, F, fraction):
     """pymeshlab's quadric edge collapse of (V, F) to ``fraction`` of its faces (topology and boundary kept)."""
     import pymeshlab

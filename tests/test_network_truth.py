@@ -15,7 +15,6 @@ import json
 
 import numpy as np
 import pytest
-import vtk
 from matplotlib import colormaps
 from scipy.spatial import cKDTree
 from vtk.util.numpy_support import vtk_to_numpy
@@ -26,6 +25,8 @@ from vesselgp.cli import main
 from vesselgp.network import centerline_network
 from vesselgp.synthetic import deform_synthetic, synthetic_vessel
 from vesselgp.synthetic_tree import synthetic_tree
+
+from test_vtk_outputs import arrays, cells, read_vtp
 
 A_HELIX, C_HELIX = 8.0, 20.0 / (2 * np.pi)  # helix radius and pitch / 2 pi
 KAPPA = A_HELIX / (A_HELIX**2 + C_HELIX**2)  # exact curvature
@@ -43,25 +44,6 @@ RADIUS = {-1: lambda s: 2.0 - np.asarray(s, float), 1: lambda s: 1.0 + np.asarra
 
 
 # ----------------------------------------------------------------------------- helpers
-
-
-def read_vtp(path):
-    r = vtk.vtkXMLPolyDataReader()
-    r.SetFileName(str(path))
-    r.Update()
-    pd = r.GetOutput()
-    assert r.GetErrorCode() == 0 and pd.GetNumberOfPoints() > 0, path
-    return pd
-
-
-def arrays(data):
-    return {data.GetArrayName(i): vtk_to_numpy(data.GetArray(i)) for i in range(data.GetNumberOfArrays())}
-
-
-def cells(pd):
-    lines = pd.GetLines()
-    offsets, conn = vtk_to_numpy(lines.GetOffsetsArray()), vtk_to_numpy(lines.GetConnectivityArray())
-    return [conn[a:b] for a, b in zip(offsets[:-1], offsets[1:])]
 
 
 def network(path):

@@ -15,16 +15,14 @@ import pytest
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from _data import REAL, real_twist, vmtk_lines
+from _data import needs_real, real_twist, vmtk_lines
 
 RENAL = "gmsh_abdominal-aorta-renal-iliac_open.stl"
 XCAT = "xrayangio_xcat-coronary-tree_open.stl"
 ILIAC = "vmtk_abdominal_aorta_iliac_bifurcation_open.stl"
 ARCH = "gmsh_aortic-arch_open.stl"
 
-pytestmark = pytest.mark.skipif(not all((REAL / n).is_file() and (REAL / "vmtk" / f"{n}.npz").is_file()
-                                        for n in (RENAL, XCAT, ILIAC, ARCH)),
-                                reason=f"real meshes or their VMTK lines not in {REAL}")
+pytestmark = needs_real(RENAL, XCAT, ILIAC, ARCH)
 
 
 rt = real_twist()

@@ -20,7 +20,7 @@ from vesselgp import tolerances as tol
 from vesselgp.errors import EndsError
 from vesselgp.rotations import wrap_angle
 from vesselgp.twist import _segment_uncertainty
-from _data import REAL, real_twist
+from _data import REAL, needs_real, real_twist
 from _docs import figure, table
 
 XCAT = "xrayangio_xcat-coronary-tree_open.stl"
@@ -28,9 +28,7 @@ RENAL = "gmsh_abdominal-aorta-renal-iliac_open.stl"
 ARCH = "cardiopinns_aortic-arch-4dflow_capped.stl"
 GMSH_ARCH = "gmsh_aortic-arch_open.stl"
 
-pytestmark = pytest.mark.skipif(not all((REAL / n).is_file() and (REAL / "vmtk" / f"{n}.npz").is_file()
-                                        for n in (XCAT, RENAL, ARCH, GMSH_ARCH)),
-                                reason=f"real meshes or their VMTK lines not in {REAL}")
+pytestmark = needs_real(XCAT, RENAL, ARCH, GMSH_ARCH)
 
 #: (mesh, VMTK line of the main vessel, profile, total degrees): a coronary whose main vessel the single fit cannot
 #: follow (tree path), with 7 side branches at 18-77 degrees; an aorta with visceral branches and the iliac
@@ -127,6 +125,21 @@ def test_default_ends_run_on_every_real_tree_with_three_side_branches(name):
     ends = vg.vessel_ends(V, F)
     assert r.ends_a[0] == int(np.argmax([e.radius for e in ends]))
     assert np.allclose(r.segment_twist, 0.0, atol=1e-9)
+    # every branch off the main vessel, however deep, leaves it where its subtree's junction with it lies: between
+    # one main radius before that junction's place and TWIST_DIR_START + 1 radii past it (the ostium); NaN on it
+    t = r.tree_a
+    k = next(q for q, p in enumerate(t.paths) if p.ends[1] == r.ends_a[1])
+    main, on = t.paths[k], set(t.path_branches[k])
+    assert np.all(np.isnan(r.leaves_a[list(on)]))
+    for c in set(range(len(t.branches))) - on:
+        a = c
+        while int(t.parent[a]) not in on:
+            a = int(t.parent[a])
+        J = t.junctions[int(np.flatnonzero(t.junction_branch == t.parent[a])[0])]
+        i = int(np.argmin(np.linalg.norm(main.dense_points - J, axis=1)))
+        s_j, r_j = main.dense_s[i] * r.length_a, float(main.radius_at([main.dense_s[i]])[0])
+        assert s_j - r_j <= r.leaves_a[c] <= s_j + (tol.TWIST_DIR_START + 1.0) * r_j, (c, a, s_j, r.leaves_a[c])
+        assert r.leaves_a[c] == r.leaves_a[a]
 
 
 def test_a_main_vessel_with_too_few_landmarks_names_the_ones_that_work():

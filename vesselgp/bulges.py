@@ -182,20 +182,23 @@ def _stretch_within(path, s_range, c, reach):
     return bool(m.any() and np.min(np.linalg.norm(path.dense_points[m] - c, axis=1)) <= reach)
 
 
-def _beside(V, wall, paths, k, sp, half):
+def _beside(nearest, wall, k, sp, half, fitted):
     """The lumen's radius beside a sac placed at ``sp`` on path ``k``: the median distance to that path of the
     mesh's vertices nearest to its samples within ``half`` (normalised arc length) of ``sp``, the sac's wall left
     out. (The path's fitted radius there is drawn into the neck: 7-37 % too wide on tapered tubes and next to a
-    bifurcation, measured.) With no such vertex, the fitted radius at ``sp``."""
-    P = np.vstack([p.dense_points for p in paths])
-    owner = np.concatenate([np.full(len(p.dense_s), q) for q, p in enumerate(paths)])
-    s = np.concatenate([p.dense_s for p in paths])
-    d, i = cKDTree(P).query(V)
-    near = (owner[i] == k) & (np.abs(s[i] - sp) <= half)
+    bifurcation, measured.) ``nearest``: each vertex's distance to the paths' samples, the path and the ``s`` of
+    its nearest; with no such vertex, ``fitted``, the path's fitted radius at ``sp``."""
+    d, path, s = nearest
+    near = (path == k) & (np.abs(s - sp) <= half)
     near[wall] = False
-    if not near.any():
-        return float(paths[k].radius_at([sp])[0])
-    return float(np.median(d[near]))
+    return float(np.median(d[near])) if near.any() else fitted
+
+
+def _nearest_samples(V, paths):
+    """Each vertex's distance to the nearest dense sample of the paths, that sample's path and its ``s``."""
+    d, i = cKDTree(np.vstack([p.dense_points for p in paths])).query(V)
+    path = np.concatenate([np.full(len(p.dense_s), q) for q, p in enumerate(paths)])
+    return d, path[i], np.concatenate([p.dense_s for p in paths])[i]
 
 
 def tree_bulges(paths, sacs=(), mesh=None):
@@ -238,8 +241,10 @@ def tree_bulges(paths, sacs=(), mesh=None):
                 found[same] = replace(found[same], paths=found[same].paths + (k,))
     if len(sacs) and mesh is None:
         raise ValueError("tree_bulges: sacs are placed on the mesh; pass mesh=(V, adjacency)")
-    for c, out, rs in sacs:
+    if len(sacs):
         V, adjacency = mesh
+        nearest = _nearest_samples(V, paths)
+    for c, out, rs in sacs:
         wall, neck = sac_wall(V, adjacency, int(np.argmin(np.linalg.norm(V - (c + rs * out), axis=1))), paths)
         k, i = _nearest_sample(paths, neck)
         p = paths[k]
@@ -251,5 +256,5 @@ def tree_bulges(paths, sacs=(), mesh=None):
         sp = float(p.dense_s[i])
         half = rs / p.length
         found.append(Bulge((k,), np.array([max(sp - half, 0.0), min(sp + half, 1.0)]), sp, p.dense_points[i],
-                           float(rs), _beside(V, wall, paths, k, sp, half), wall))
+                           float(rs), _beside(nearest, wall, k, sp, half, float(p.radius_at([sp])[0])), wall))
     return tuple(found)

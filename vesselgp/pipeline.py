@@ -40,7 +40,7 @@ from .tree import fit_vessel_tree
 from .io import (read_case, read_mesh, to_json, write_case, write_centerlines, write_csv, write_json, write_mesh)
 from .join import JoinProblem, minimize_torsion
 from .join_vessels import VesselJoin
-from .mesh import clean_mesh, format_point, mesh_scale, stitch, vessel_ends
+from .mesh import clean_mesh, format_point, mesh_scale, stitch
 from .mesh.scale import UNIT_NAMES, units_factor
 from .network import centerline_network
 from .prepared import PreparedMesh
@@ -1201,8 +1201,7 @@ def scan_twist_field(r, V, cumulative_deg):
     """Each vertex of scan A's mesh ``V``: the twist from scan A to scan B accumulated along the main vessel up to
     its place there (degrees, 0 at landmark 1; interpolated linearly in scan A's arc length between the landmarks,
     constant past the first and the last); a side branch's vertex, and those of what grows from it, take the value
-    where it leaves the main vessel: at its ostium (twist module notes, step 2), its landmark's value when it is
-    one.
+    where it leaves the main vessel (:attr:`vesselgp.ScanTwist.leaves_a`: its ostium, twist module notes, step 2).
 
     Parameters
     ----------
@@ -1217,34 +1216,15 @@ def scan_twist_field(r, V, cumulative_deg):
     """
     from scipy.spatial import cKDTree
 
-    from .twist import _at_arclength, _project_s
-
-    tree = r.tree_a
-    k = next(q for q, p in enumerate(tree.paths) if p.ends[1] == r.ends_a[1])
-    main, on_path = tree.paths[k], set(tree.path_branches[k])
+    main = r.tree_a.path_to(r.ends_a[1])
     on = np.isfinite(main.vertex_s)
     twist = np.empty(len(V))
     twist[on] = np.interp(main.vertex_s[on] * r.length_a, r.s_a, cumulative_deg)
-    # where each branch leaving the main path does: its landmark's s, else its ostium's projection (as a landmark's)
-    ostium = dict(zip((int(c) for c in r.side_a), r.s_a))
-    for c in range(len(tree.branches)):
-        if c not in on_path and c not in ostium and int(tree.parent[c]) in on_path:
-            side = tree.branches[c]
-            J = tree.junctions[int(np.flatnonzero(tree.junction_branch == tree.parent[c])[0])]
-            r_j = float(main.radius_at([_project_s(main, J) / main.length])[0])
-            P = _at_arclength(side, min(tol.TWIST_DIR_START * r_j, 0.5 * side.length))
-            ostium[c] = _project_s(main, P) / main.length * r.length_a
-    leaves = np.full(len(tree.branches), -1)  # the branch through which each branch's subtree leaves the main path
-    for c in range(len(tree.branches)):
-        b = c
-        while b >= 0 and b not in ostium and b not in on_path:
-            b = int(tree.parent[b])
-        leaves[c] = b if b in ostium else -1
     off = np.flatnonzero(~on)
-    via = leaves[tree.vertex_branch[off]]
-    left = via >= 0
-    twist[off[left]] = np.interp(np.array([ostium[b] for b in via[left]]), r.s_a, cumulative_deg)
-    rest = off[~left]  # on a main-path branch without a place along it: the nearest main-vessel vertex's value
+    place = r.leaves_a[r.tree_a.vertex_branch[off]]  # where each vertex's side branch leaves the main vessel
+    side = np.isfinite(place)
+    twist[off[side]] = np.interp(place[side], r.s_a, cumulative_deg)
+    rest = off[~side]  # on a main-vessel branch without a place along it: the nearest main-vessel vertex's value
     if len(rest):
         ids = np.flatnonzero(on)
         twist[rest] = twist[ids[cKDTree(V[ids]).query(V[rest])[1]]]

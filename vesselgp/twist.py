@@ -130,6 +130,10 @@ class Landmarks:
         Half-width (radians) of the 95 % interval of each azimuth (step 5).
     main_axis : str
         ``"single fit"`` or ``"tree path"`` (step 1).
+    leaves : (b,) float64
+        For every branch of ``tree``: the arc length along the main axis where it, or the side branch it grows
+        from, leaves the main vessel (at that side branch's ostium, step 2, landmark or not); NaN on the main
+        vessel's own branches.
     reversed : bool
         The main axis runs from the tree's path end back to its root (``s``
         measured from ``ends[0]`` all the same).
@@ -149,6 +153,7 @@ class Landmarks:
     divides: np.ndarray
     uncertainty: np.ndarray
     main_axis: str
+    leaves: np.ndarray
     reversed: bool = False
 
     def flipped(self):
@@ -158,7 +163,7 @@ class Landmarks:
                          points=self.points[o], s=(self.length - self.s)[o], azimuth=(-self.azimuth)[o],
                          direction=self.direction[o], radius=self.radius[o], branch=self.branch[o],
                          angle=self.angle[o], divides=self.divides[o], uncertainty=self.uncertainty[o],
-                         main_axis=self.main_axis, reversed=not self.reversed)
+                         main_axis=self.main_axis, leaves=self.length - self.leaves, reversed=not self.reversed)
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,6 +212,9 @@ class ScanTwist:
         The main vessel divides at the landmark into comparable daughters.
     main_axis_a, main_axis_b : str
         ``"single fit"`` or ``"tree path"`` (step 1).
+    leaves_a : (b,) float64
+        For every branch of ``tree_a``: the arc length along scan A's main axis where it, or the side branch it
+        grows from, leaves the main vessel (:attr:`Landmarks.leaves`; NaN on the main vessel).
     tree_a, tree_b : VesselTree
     """
 
@@ -242,6 +250,7 @@ class ScanTwist:
     divides_b: np.ndarray
     main_axis_a: str
     main_axis_b: str
+    leaves_a: np.ndarray = field(repr=False)
     tree_a: object = field(repr=False)
     tree_b: object = field(repr=False)
 
@@ -325,8 +334,7 @@ def _side_azimuth(main, side, start):
     """A side branch's azimuth from where it lies about the main axis (step 3): each of ``TWIST_OSTIUM_SAMPLES``
     points of its axis from ``start`` over ``TWIST_DIR_SPAN`` side radii, projected onto the main axis, gives
     the angle of its offset from the axis in the RMF there; the azimuth is their circular mean weighted by the
-    offsets. Returns the azimuth, the samples' circular spread (radians), the mean offset and the arc length of
-    the first sample's projection."""
+    offsets. Returns the azimuth, the samples' circular spread (radians) and their mean offset."""
     a1 = min(start, 0.5 * side.length)
     a2 = min(a1 + tol.TWIST_DIR_SPAN * side.mean_radius, side.length)
     P = side.at(np.linspace(a1, a2, tol.TWIST_OSTIUM_SAMPLES) / side.length)[0]
@@ -337,7 +345,7 @@ def _side_azimuth(main, side, start):
     w = np.linalg.norm(O, axis=1)
     z = np.sum(w * np.exp(1j * np.arctan2(np.sum(O * fr[:, 2], axis=1), np.sum(O * fr[:, 1], axis=1))))
     spread = math.sqrt(max(-2.0 * math.log(max(abs(z) / w.sum(), 1e-300)), 0.0))  # circular std
-    return float(np.angle(z)), spread, float(w.mean()), float(s[0])
+    return float(np.angle(z)), spread, float(w.mean())
 
 
 def _landmark_sigma(spread, edges, eps_T):
@@ -380,6 +388,29 @@ def _together(rows, quiet=False):
     return kept
 
 
+def _ostium(main, side, r_j):
+    """Where a side branch leaves the main vessel (step 2): the arc length along ``main`` of its axis point
+    ``TWIST_DIR_START`` main radii ``r_j`` past the junction (at most half the branch), and that arc length along
+    the side branch."""
+    start = min(tol.TWIST_DIR_START * r_j, 0.5 * side.length)
+    return _project_s(main, _at_arclength(side, start)), start
+
+
+def _leaves(main, tree, k):
+    """:attr:`Landmarks.leaves` of path ``k`` about the axis ``main``: (b,) float64."""
+    out = np.full(len(tree.branches), np.nan)
+    for b, J, sides, nxt in _side_branches(tree, k):
+        r_j = float(main.radius_at([_project_s(main, J) / main.length])[0])
+        for c in sides:
+            out[c] = _ostium(main, tree.branches[c], r_j)[0]
+    for c in range(len(tree.branches)):  # a branch grown from a side branch leaves where that one does
+        b = c
+        while b >= 0 and np.isnan(out[b]) and b not in tree.path_branches[k]:
+            b = int(tree.parent[b])
+        out[c] = out[b] if b >= 0 else np.nan
+    return out
+
+
 def _landmark_rows(main, tree, k, h, quiet=False):
     """The landmarks of path ``k`` about the axis ``main`` (step 2): one row per side branch leaving it, at the
     arc length of its ostium (its axis point past the junction zone, projected on the main axis); of two within
@@ -390,8 +421,7 @@ def _landmark_rows(main, tree, k, h, quiet=False):
         r_j = float(main.radius_at([s_j / main.length])[0])
         for c in sides:
             side = tree.branches[c]
-            start = min(tol.TWIST_DIR_START * r_j, 0.5 * side.length)
-            s = _project_s(main, _at_arclength(side, start))
+            s, start = _ostium(main, side, r_j)
             r_main = float(main.radius_at([s / main.length])[0])
             (T, _, _), eps_T = _main_direction(main, s, r_main)
             d = _side_direction(side, start)
@@ -402,7 +432,7 @@ def _landmark_rows(main, tree, k, h, quiet=False):
                                 "undefined, it is not used as a landmark", c, tol.TWIST_MIN_ANGLE_DEG)
                 continue
             divides = _divides(side.mean_radius, tree.branches[nxt].mean_radius)
-            az, spread, offset, _ = _side_azimuth(main, side, start)
+            az, spread, offset = _side_azimuth(main, side, start)
             sigma = _landmark_sigma(spread, h / offset, eps_T)
             log.debug("landmark s=%.1f theta=%.1f eps_T=%.2f spread=%.2f h/offset=%.3f sigma=%.2f deg", s,
                       math.degrees(theta), math.degrees(eps_T), math.degrees(spread), h / offset, math.degrees(sigma))
@@ -526,7 +556,7 @@ def scan_landmarks(V, F=None, ends=None):
     return _landmarks(tree, k, main, kind, h)
 
 
-def _landmarks(tree, k, main, kind, h, quiet=False):
+def _landmarks(tree, k, main, kind, h):
     """The :class:`Landmarks` of path ``k`` of ``tree`` about the axis ``main`` (of ``kind``); ``h`` the median
     edge. Raises EndsError, listing the candidates, when it has fewer than two."""
     i, j = tree.paths[k].ends
@@ -537,7 +567,7 @@ def _landmarks(tree, k, main, kind, h, quiet=False):
                         f"scans needs at least two landmarks; main vessels from end {i} with their landmarks: "
                         f"{_candidate_text(i, cands)} (choose one with ends=)")
     for r in rows:
-        if r["divides"] and not quiet:
+        if r["divides"]:
             log.warning("the main vessel divides at s = %.3g into comparable daughters (side radius %.3g): its "
                         "direction there is less well defined, the landmark's uncertainty says by how much",
                         r["s"], r["radius"])
@@ -545,7 +575,7 @@ def _landmarks(tree, k, main, kind, h, quiet=False):
     return Landmarks(tree=tree, ends=(i, j), main=main, length=float(main.length), points=col["point"],
                      s=col["s"], azimuth=col["azimuth"], direction=col["direction"], radius=col["radius"],
                      branch=col["branch"].astype(np.int64), angle=col["angle"], divides=col["divides"],
-                     uncertainty=tol.TWIST_Z95 * col["sigma"], main_axis=kind)
+                     uncertainty=tol.TWIST_Z95 * col["sigma"], main_axis=kind, leaves=_leaves(main, tree, k))
 
 
 def _match(A, B):
@@ -680,6 +710,7 @@ def twist_between(V_a, F_a=None, V_b=None, F_b=None, *, ends_a=None, ends_b=None
         ends_a=A.ends, ends_b=B.ends, length_a=A.length, length_b=B.length, unmatched_a=A.s[un_a],
         unmatched_b=B.s[un_b], side_a=A.branch[ia], side_b=B.branch[ib], radius_a=A.radius[ia],
         radius_b=B.radius[ib], landmark_uncertainty_a=A.uncertainty[ia], landmark_uncertainty_b=B.uncertainty[ib],
-        segment_uncertainty=useg, cumulative_uncertainty=ucum, unreliable=unreliable, angle_a=A.angle[ia], divides_a=A.divides[ia],
-        divides_b=B.divides[ib], main_axis_a=A.main_axis, main_axis_b=B.main_axis, tree_a=A.tree, tree_b=B.tree,
+        segment_uncertainty=useg, cumulative_uncertainty=ucum, unreliable=unreliable, angle_a=A.angle[ia],
+        divides_a=A.divides[ia], divides_b=B.divides[ib], main_axis_a=A.main_axis, main_axis_b=B.main_axis,
+        leaves_a=A.leaves, tree_a=A.tree, tree_b=B.tree,
     )
