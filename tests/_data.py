@@ -47,6 +47,24 @@ def needs_real(*names):
                               reason=f"real meshes or their VMTK lines not in {REAL}")
 
 
+def smooth_union(a, b, k):
+    """Polynomial smooth minimum of two signed distances ``a``, ``b`` over a width ``k`` (a blended union)."""
+    t = np.clip(0.5 + 0.5 * (b - a) / k, 0.0, 1.0)
+    return b * (1 - t) + a * t - k * t * (1 - t)
+
+
+def level_surface(field, origin, h):
+    """The zero level set of ``field`` sampled on a grid of spacing ``h`` from ``origin`` (scikit-image's marching
+    cubes), outward-oriented and cleaned (:func:`vesselgp.clean_mesh`): (V, F)."""
+    from skimage.measure import marching_cubes
+
+    import vesselgp
+
+    V, F, _, _ = marching_cubes(field, 0.0, spacing=(h, h, h))
+    V = V + np.asarray(origin, float)
+    return vesselgp.clean_mesh(V.astype(np.float64), F.astype(np.int64)[:, ::-1].copy())[:2]
+
+
 def decimated(V, F, fraction):
     """pymeshlab's quadric edge collapse of (V, F) to ``fraction`` of its faces (topology and boundary kept)."""
     import pymeshlab

@@ -24,6 +24,11 @@ from scipy.interpolate import make_interp_spline
 from scipy.spatial import cKDTree
 
 
+def arc_length(P):
+    """Cumulative chord length (k,) of the polyline ``P`` (k, 3), 0 at its first point."""
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
+
+
 def unit(X):
     X = np.asarray(X, float)
     return X / np.linalg.norm(X, axis=-1, keepdims=True)

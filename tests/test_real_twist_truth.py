@@ -16,6 +16,7 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from _data import needs_real, real_twist, vmtk_lines
+from _reference import arc_length
 
 RENAL = "gmsh_abdominal-aorta-renal-iliac_open.stl"
 XCAT = "xrayangio_xcat-coronary-tree_open.stl"
@@ -26,10 +27,6 @@ pytestmark = needs_real(RENAL, XCAT, ILIAC, ARCH)
 
 
 rt = real_twist()
-
-
-def _arc(P):
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
 
 
 def _kabsch(A, B):
@@ -43,7 +40,7 @@ def _kabsch(A, B):
 
 def _raw_tangents(P, R):
     """Chord tangent of VMTK's raw line at each of its points, over +-1 inscribed radius."""
-    a = _arc(P)
+    a = arc_length(P)
     lo = np.searchsorted(a, a - R)
     hi = np.clip(np.searchsorted(a, a + R), 0, len(P) - 1)
     t = P[hi] - P[lo]
@@ -52,7 +49,7 @@ def _raw_tangents(P, R):
 
 def _raw_frame(P, R, s):
     """VMTK's raw line point at arc length ``s``, its chord tangent and inscribed radius."""
-    i = int(np.clip(np.searchsorted(_arc(P), s), 0, len(P) - 1))
+    i = int(np.clip(np.searchsorted(arc_length(P), s), 0, len(P) - 1))
     return P[i], _raw_tangents(P, R)[i], R[i]
 
 
@@ -64,7 +61,7 @@ def _unmoved(case):
 @pytest.fixture(scope="module")
 def renal_linear():
     """Renal-iliac tree, main vessel the aorta into its right iliac (line 0), 90 degrees linear, no remesh."""
-    L = _arc(vmtk_lines(RENAL)[0][0])[-1]
+    L = arc_length(vmtk_lines(RENAL)[0][0])[-1]
     return rt.twisted_copy(RENAL, 0, rt.alpha_profile("linear", 90.0, 0.0, L), remesh=False, seed=4)
 
 
@@ -118,7 +115,7 @@ def test_side_subtrees_turn_rigidly_by_the_junction_alpha(renal_linear):
         # the subtree's lines run with the main line before s and have left it two main radii after
         for j in jn.lines:
             Pj = lines[j][0]
-            a = _arc(Pj)
+            a = arc_length(Pj)
             d = cKDTree(P).query(Pj)[0]
             before = a < jn.s - 0.5 * jn.main_radius
             assert np.all(d[before] < 0.5 * jn.main_radius)
@@ -135,7 +132,7 @@ def test_main_vessel_far_end_turns_by_alpha(renal_linear):
     """Cross-sections near the main line's far end turn by alpha(s) about VMTK's tangent (2-D Procrustes)."""
     case = renal_linear
     P, R = vmtk_lines(RENAL)[0]
-    a = _arc(P)
+    a = arc_length(P)
     X = _unmoved(case)
     d, i = cKDTree(P).query(case.V_a)
     checked = 0
@@ -167,7 +164,7 @@ def test_face_orientation_is_kept(renal_linear):
     """Twisted normals agree with scan A's turned by the truth's rotation (VMTK's tangent for main faces)."""
     case = renal_linear
     P, R = vmtk_lines(RENAL)[0]
-    a = _arc(P)
+    a = arc_length(P)
     F, V, X = case.F_a, case.V_a, _unmoved(case)
 
     def normals(W):
@@ -190,7 +187,7 @@ def test_face_orientation_is_kept(renal_linear):
 
 @pytest.mark.parametrize("name,main", [(ILIAC, 0), (ARCH, 0)])
 def test_remeshed_scan_b_keeps_ends_and_surface(name, main):
-    L = _arc(vmtk_lines(name)[main][0])[-1]
+    L = arc_length(vmtk_lines(name)[main][0])[-1]
     case = rt.twisted_copy(name, main, rt.alpha_profile("sine", 70.0, 0.0, L), remesh=True, seed=1)
     loops = lambda F: len(igl.boundary_loop_all(np.asarray(F, np.int64)))  # noqa: E731
     assert loops(case.F_b) == loops(case.F_a) > 0  # the open ends stay open
@@ -219,7 +216,7 @@ def test_xcat_junction_table():
     assert max(len(js) for js in table) >= 6  # a main coronary with many side branches
     kinds = set()
     for k, js in enumerate(table):
-        L = _arc(lines[k][0])[-1]
+        L = arc_length(lines[k][0])[-1]
         assert len(js) >= 1
         seen = set()
         assert np.all(np.diff([j.s for j in js]) >= 0)

@@ -31,7 +31,8 @@ from vesselgp import tolerances as tol
 from vesselgp.pipeline import OutputFolder, run_fit, twist_scans, write_twist
 from vesselgp.prepared import PreparedMesh
 from vesselgp.synthetic import deform_synthetic, synthetic_vessel, twist_pair
-from vesselgp.synthetic_tree import _coefficients, _eval
+
+from _reference import arc_length
 
 
 def _no_png(mp):
@@ -95,8 +96,8 @@ def _pair_truth(p, X):
         ctrl = T.branches[b].control
         junction.append(ctrl[0])
         r_main = P.radii[np.argmin(np.linalg.norm(P.centers - ctrl[0], axis=1))]
-        C = _eval(_coefficients(ctrl), np.linspace(0.0, 1.0, 4001))
-        arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(C, axis=0), axis=1))]
+        C = T.branches[b].centers  # the exact Bezier centre line, densely sampled
+        arc = arc_length(C)
         ost.append(P.s[np.argmin(np.linalg.norm(P.centers - C[np.searchsorted(arc, tol.TWIST_DIR_START * r_main)],
                                                 axis=1))])
     order = np.argsort(ost)
@@ -194,7 +195,7 @@ def fit_page(tmp_path_factory):
     vg.write_mesh(d / "taper.ply", v.V, v.F)
     with pytest.MonkeyPatch.context() as mp:
         _no_png(mp)
-        gc, _ = run_fit(d / "taper.ply", OutputFolder(d / "out"), ends=(1, 0))
+        run_fit(d / "taper.ply", OutputFolder(d / "out"), ends=(1, 0))
     traces = plotly_traces((d / "out" / "report.html").read_text())
     return dict(v=v, traces=traces, mesh=_mesh_trace(traces))
 

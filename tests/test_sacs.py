@@ -15,21 +15,10 @@ import pytest
 import vesselgp
 from vesselgp import tolerances as tol
 
+from _data import level_surface, smooth_union
+
 R = 1.5  # the tube's radius
 H = 0.2  # voxel
-
-
-def _smooth_union(a, b, k=0.5):
-    t = np.clip(0.5 + 0.5 * (b - a) / k, 0.0, 1.0)
-    return b * (1 - t) + a * t - k * t * (1 - t)
-
-
-def _surface(field, axes):
-    from skimage.measure import marching_cubes
-
-    V, F, _, _ = marching_cubes(field, 0.0, spacing=(H, H, H))
-    V = V + [a[0] for a in axes]
-    return vesselgp.clean_mesh(V.astype(np.float64), F.astype(np.int64)[:, ::-1].copy())[:2]
 
 
 def _tee(rho, length=9.0, half=14.0):
@@ -40,7 +29,7 @@ def _tee(rho, length=9.0, half=14.0):
     z = np.arange(-max(R, rho) - 1.0, max(R, rho) + 1.0 + H / 2, H)
     X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
     side = np.sqrt(X**2 + (Y - np.clip(Y, 0.0, length)) ** 2 + Z**2) - rho
-    return _surface(_smooth_union(np.hypot(Y, Z) - R, side), (x, y, z))
+    return level_surface(smooth_union(np.hypot(Y, Z) - R, side, 0.5), (x[0], y[0], z[0]), H)
 
 
 @pytest.mark.parametrize("ratio, is_end", [(1.02, True), (1.08, False)])
@@ -77,8 +66,8 @@ def _capsule_on_neck(rho, ell, neck=0.45, gap=1.0, half=12.0):
     X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
     capsule = np.sqrt(X**2 + (Y - np.clip(Y, y0, y1)) ** 2 + Z**2) - rho
     stalk = np.maximum(np.hypot(X, Z) - neck * rho, np.maximum(Y - y0, -Y))  # from the tube axis up to the sphere
-    body = _smooth_union(np.hypot(Y, Z) - R, stalk, 0.3)
-    return _surface(_smooth_union(body, capsule, 0.3), (x, y, z))
+    body = smooth_union(np.hypot(Y, Z) - R, stalk, 0.3)
+    return level_surface(smooth_union(body, capsule, 0.3), (x[0], y[0], z[0]), H)
 
 
 @pytest.mark.parametrize("factor", [0.95, 1.05])
@@ -134,7 +123,7 @@ def _side_sac(sac=2.5, bend=3.0, length=30.0):
     tube = np.hypot(Y - bend * np.sin(np.pi * X / length), Z) - R
     c = np.array([length / 2, bend + R + 0.6 * sac, 0.0])
     ball = np.sqrt((X - c[0]) ** 2 + (Y - c[1]) ** 2 + (Z - c[2]) ** 2) - sac
-    return _surface(_smooth_union(tube, ball, 0.6), (x, y, z)), (bend, length, sac)
+    return level_surface(smooth_union(tube, ball, 0.6), (x[0], y[0], z[0]), H), (bend, length, sac)
 
 
 def test_a_side_wall_sac_is_passed_by_not_taken_for_an_end():
@@ -175,7 +164,7 @@ def _leaning_sac(rs=2.0, neck=10.0, rise=4.5, lean=8.0, flat=0.7, length=30.0):
     P = np.stack([X, Y, Z / flat], axis=-1)
     a, b, c = np.array([neck, 0.0, 0.0]), np.array([neck, rise, 0.0]), np.array([neck + lean, rise + 1.5, 0.0])
     sac = np.minimum(_segment_distance(P, a, b), _segment_distance(P, b, c)) - rs
-    return _surface(_smooth_union(np.hypot(Y, Z) - R, sac, 0.6), (x, y, z))
+    return level_surface(smooth_union(np.hypot(Y, Z) - R, sac, 0.6), (x[0], y[0], z[0]), H)
 
 
 def test_a_leaning_sac_is_placed_at_its_neck_and_its_wall_is_the_sacs():
