@@ -422,7 +422,7 @@ MUTATIONS = {
         "vesselgp/checks.py",
         "        zone_radius[m] = np.maximum(zone_radius[m], bl.peak_radius)",
         "        pass",
-        ["tests/test_checks.py", "tests/test_real_trees.py", "tests/test_sacs.py"],
+        ["tests/test_checks.py", "tests/test_real_trees.py", "tests/test_sacs.py", "tests/test_bulges_truth.py"],
     ),
     "bend_curvature_per_unit_s": (
         "vesselgp/inside.py",

@@ -468,3 +468,118 @@ def test_cli_join_place_0_puts_the_moving_end_on_the_other_end_facing_it(join_pa
         for g, w in zip(got, want):
             assert float(g) == pytest.approx(float(w), rel=1e-5, abs=1e-12) if isinstance(w, (int, float)) and \
                 not isinstance(w, bool) else g == str(w), (k, g, w)
+
+
+# --------------------------------------------------------------------------- #
+# a fusiform aneurysm with a lobe on its shoulder: the bulge's wall is judged in its peak radius (issue #44)
+# --------------------------------------------------------------------------- #
+AL, AX, AA, AB = 30.0, 14.0, 5.0, 2.6  # the tube's length, the aneurysm's centre (x), its half-length and radius
+LOBE_DX, LOBE_HX, LOBE_HZ = 2.75, 0.8, 1.8  # the lobe's foot past the centre (towards the wide end), its half-widths
+HL = 0.25
+
+
+def _aneurysm_radius(dx):
+    """The exact radius of the aneurysm's ellipsoid ``dx`` from its centre."""
+    return AB * np.sqrt(np.clip(1.0 - (np.asarray(dx, float) / AA) ** 2, 0.0, None))
+
+
+LOBE_FOOT = float(_aneurysm_radius(LOBE_DX))  # 2.17: the aneurysm's radius where the lobe stands
+#: the lobe's tip: halfway between the zone's reach in the radius at its foot and in the peak radius (4.77) ...
+REACH_IN = tol.CHECK_ZONE_REACH * 0.5 * (LOBE_FOOT + AB)
+#: ... and half a unit beyond the reach in the peak radius (5.7)
+REACH_OUT = tol.CHECK_ZONE_REACH * AB + 0.5
+
+
+def _lobe(reach):
+    """The lobe: an ellipsoid centred inside the aneurysm's wall at the foot, its tip ``reach`` from the axis (+y)."""
+    yc = 0.8 * LOBE_FOOT
+    return np.array([AX + LOBE_DX, yc, 0.0]), np.array([LOBE_HX, reach - yc, LOBE_HZ])
+
+
+def _aneurysm_with_lobe(reach):
+    """A tube along x tapered from radius 1 (x = 0) to 1.4 (x = 30), open at both ends, through the aneurysm
+    (an ellipsoid of half-length 5 and radius 2.6 centred on its axis at x = 14) and the lobe, smoothly joined."""
+    c, semi = _lobe(reach)
+    x = np.arange(0.0, AL + HL / 2, HL)
+    y = np.arange(-AB - 1.0, reach + 1.0, HL)
+    z = np.arange(-AB - 1.0, AB + 1.0 + HL / 2, HL)
+    X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
+    tube = np.hypot(Y, Z) - (1.0 + 0.4 * X / AL)
+    aneurysm = (np.sqrt(((X - AX) / AA) ** 2 + (Y / AB) ** 2 + (Z / AB) ** 2) - 1.0) * AB
+    lobe = (np.sqrt(((X - c[0]) / semi[0]) ** 2 + ((Y - c[1]) / semi[1]) ** 2 + ((Z - c[2]) / semi[2]) ** 2)
+            - 1.0) * semi.min()
+    return level_surface(smooth_union(smooth_union(tube, aneurysm, 0.5), lobe, 0.4), (x[0], y[0], z[0]), HL)
+
+
+def _lobe_area_beyond(reach, d, n=300):
+    """The exact area of the lobe's ellipsoid farther than ``d`` from the tube's axis (midpoint rule in its polar
+    angle from the tip and its azimuth; the tip's wall is the lobe's alone: the aneurysm's field is 2.4 away)."""
+    c, (a, b, e) = _lobe(reach)
+    t = (np.arange(n) + 0.5) * np.pi / n
+    T, P = np.meshgrid(t, 2.0 * t, indexing="ij")
+    y, z = c[1] + b * np.cos(T), e * np.sin(T) * np.sin(P)
+    dt = np.stack([a * np.cos(T) * np.cos(P), -b * np.sin(T), e * np.cos(T) * np.sin(P)])
+    dp = np.stack([-a * np.sin(T) * np.sin(P), 0.0 * T, e * np.sin(T) * np.cos(P)])
+    dA = np.linalg.norm(np.cross(dt, dp, axis=0), axis=0) * (np.pi / n) * (2.0 * np.pi / n)
+    return float(dA[np.hypot(y, z) > d].sum())
+
+
+@pytest.fixture(scope="module")
+def lobe_within():
+    V, F = _aneurysm_with_lobe(REACH_IN)
+    pm = PreparedMesh(V, F)
+    return V, pm, vg.fit_vessel_tree(pm)
+
+
+@pytest.fixture(scope="module")
+def lobe_beyond():
+    V, F = _aneurysm_with_lobe(REACH_OUT)
+    pm = PreparedMesh(V, F)
+    return V, pm, vg.fit_vessel_tree(pm)
+
+
+def _the_aneurysms_bulge(V, pm, tree, reach):
+    """The checks both lobes share: two open ends (1 and 1.4), no sac, the lobe's tip where built; one bulge, a
+    widening of the path (no sac's wall exempt), peaking at the aneurysm's centre with its radius 2.6, whose
+    stretch holds the aneurysm's centre and the lobe's foot. Returns the path and the lobe's tip vertex."""
+    assert sorted(e.radius for e in pm.ends) == pytest.approx([1.0, 1.4], rel=0.01) and pm.sacs == ()
+    tip = int(np.argmax(V[:, 1]))
+    assert np.linalg.norm(V[tip] - [AX + LOBE_DX, reach, 0.0]) < HL
+    (b,) = tree.bulges
+    p = tree.paths[0]
+    assert b.paths == (0,) and len(b.wall) == 0
+    x0, x1, xp = p.at(np.r_[b.s_range, b.s_peak])[0][:, 0]  # the straight axis runs along x
+    assert min(x0, x1) < AX < max(x0, x1) and min(x0, x1) < AX + LOBE_DX < max(x0, x1)
+    assert abs(xp - AX) < 0.5 and b.peak_radius == pytest.approx(AB, rel=0.03)
+    return p, tip
+
+
+def test_a_lobe_on_an_aneurysms_shoulder_is_covered_out_to_the_zone_reach_of_its_peak_radius(lobe_within):
+    """Truth: the aneurysm (radius 2.6 at x = 14 on a tube of radius 1.19 there) with a lobe on its shoulder 2.75
+    past its centre, where its exact radius is 2.6 sqrt(1 - 0.55^2) = 2.17: the lobe's tip lies 4.77 from the axis,
+    beyond CHECK_ZONE_REACH times that radius (4.34) and within CHECK_ZONE_REACH times the peak radius (5.2). The
+    fit reports the aneurysm as one bulge (its stretch holds the lobe) and the lobe's wall as the bulge's: the
+    whole wall is covered (counted in the fitted radius at the lobe's foot, 2.2, its tip would not be)."""
+    V, pm, tree = lobe_within
+    assert tol.CHECK_ZONE_REACH * LOBE_FOOT + 0.3 < REACH_IN < tol.CHECK_ZONE_REACH * AB - 0.3
+    p, tip = _the_aneurysms_bulge(V, pm, tree, REACH_IN)
+    foot = float(p.radius_at([p.vertex_s[tip]])[0])  # the fit's radius at the tip's foot is the aneurysm's there
+    assert foot == pytest.approx(LOBE_FOOT, rel=0.05)
+    assert np.linalg.norm(p.vertex_local[tip]) > tol.CHECK_ZONE_REACH * foot + 0.2
+    assert tree.checks.covered_fraction == 1.0 and not tree.checks.uncovered
+
+
+def test_a_lobe_past_the_zone_reach_of_the_peak_radius_is_the_one_uncovered_piece(lobe_beyond):
+    """Truth: the same aneurysm with its lobe reaching 5.7 from the axis, half a unit beyond CHECK_ZONE_REACH times
+    the peak radius (2 x 2.6): the one piece of wall the fit does not describe is the lobe's tip beyond that reach,
+    its area between the exact areas of the lobe's ellipsoid beyond 2 x (2.6 + 0.05) and 2 x (2.6 - 0.05) from the
+    axis (1.48-2.49, against 7.3 beyond twice the radius at its foot). Not refused: a natural lobe has
+    far less wall there (0.06 radii of tube wall) than CHECK_MAX_UNCOVERED (1.5) allows."""
+    V, pm, tree = lobe_beyond
+    _the_aneurysms_bulge(V, pm, tree, REACH_OUT)
+    (u,) = tree.checks.uncovered
+    assert tree.checks.covered_fraction < 1.0
+    assert abs(u.point[0] - (AX + LOBE_DX)) < LOBE_HX and np.hypot(*u.point[1:]) > tol.CHECK_ZONE_REACH * AB - 0.1
+    lo = _lobe_area_beyond(REACH_OUT, tol.CHECK_ZONE_REACH * (AB + 0.05))
+    hi = _lobe_area_beyond(REACH_OUT, tol.CHECK_ZONE_REACH * (AB - 0.05))
+    assert lo < u.area < hi

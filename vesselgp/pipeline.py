@@ -87,6 +87,12 @@ REPORT_FIELDS = {
     "energy_curve": "angles_deg and energies of paper Fig. 4",
     "evaluations": "angles_deg and energies the search evaluated",
     "files": "files written for this case, relative to the output folder",
+    "curve_time_s": "the energy curve of paper Fig. 4 (seconds)",
+    "output_time_s": "writing the meshes, figures and report (seconds)",
+    "placement": "null, or what --place did first: matrix (4 x 4), turned_deg, moved_mm (the joined end's centre)",
+    "case": "the paper's case, 1 or 2 (vesselgp demo only)",
+    "title": "the case's title (vesselgp demo only)",
+    "generate_time_s": "generating the case's meshes (seconds; vesselgp demo only)",
 }
 
 

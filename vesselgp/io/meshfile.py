@@ -202,6 +202,9 @@ def _read_ply(p):
             f"{p}: the header declares {declared} vertices but only {m.vertex_number()} "
             "have finite coordinates; remove or repair the NaN/infinite vertices"
         )
+    faces = _ply_header_count(p, "face")
+    if faces is not None and m.face_number() < faces:  # pymeshlab drops faces with a repeated corner:
+        return _read_meshio(p, "ply")  # read every face, so that a repair reports and removes them
     return V, m.face_matrix()
 
 
@@ -247,7 +250,7 @@ def _read_meshio(p, fmt):
     import meshio
 
     # the format's own reader: meshio.read(path) prints a failure and calls sys.exit(1)
-    reader = {"vtu": meshio.vtu.read, "vtk": meshio.vtk.read}[fmt]
+    reader = {"vtu": meshio.vtu.read, "vtk": meshio.vtk.read, "ply": meshio.ply.read}[fmt]
     try:
         mesh = reader(str(p))
     except VesselError:
