@@ -213,3 +213,116 @@ def _icosphere(k):
     for _ in range(k):
         V, F = igl.upsample(V, F)
     return V / np.linalg.norm(V, axis=1, keepdims=True), F
+
+
+# --- issue #47: exact winding numbers and distances at a cost that follows the query points ---------------
+
+
+def _torus(R=3.0, r=1.0, n=48, m=24):
+    """A closed torus (major R, minor r) of n x m quads split in two, normals outwards."""
+    u, v = np.meshgrid(np.arange(n) * 2 * np.pi / n, np.arange(m) * 2 * np.pi / m, indexing="ij")
+    V = np.c_[((R + r * np.cos(v)) * np.cos(u)).ravel(), ((R + r * np.cos(v)) * np.sin(u)).ravel(),
+              (r * np.sin(v)).ravel()]
+    i, j = np.meshgrid(np.arange(n), np.arange(m), indexing="ij")
+    a, b = (i * m + j).ravel(), (((i + 1) % n) * m + j).ravel()
+    c, d = (((i + 1) % n) * m + (j + 1) % m).ravel(), (i * m + (j + 1) % m).ravel()
+    return V, np.r_[np.c_[a, b, c], np.c_[a, c, d]].astype(np.int64)
+
+
+def test_ray_winding_is_libigls_exact_sum_on_a_closed_torus_and_on_an_open_surface():
+    """The ray count equals libigl's direct sum (exact) everywhere: 1 in the torus's tube, 0 in its hole and
+    outside, -1 with the faces turned in; on an OPEN surface (the torus less a band) the direct sum, not an
+    integer, because the line there does not cross as often in as out."""
+    import igl
+    from vesselgp.inside import ray_winding
+    from vesselgp.synthetic import signed_volume
+
+    V, F = _torus()
+    assert signed_volume(V, F) > 0
+    rng = np.random.default_rng(3)
+    Q = rng.uniform(-4.5, 4.5, (400, 3)) * [1, 1, 0.4]
+    Q = np.vstack([Q, [[3.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 3.0, 0.5]]])  # in the tube, in the hole, in the tube
+    exact = np.asarray(igl.winding_number(V, F, Q))
+    w = ray_winding(V, F, Q)
+    np.testing.assert_allclose(w, exact, atol=1e-9)
+    assert set(np.round(w).astype(int)) == {0, 1} and w[-3] == 1 and w[-2] == 0 and w[-1] == 1
+    np.testing.assert_allclose(ray_winding(V, F[:, ::-1], Q), -exact, atol=1e-9)
+    keep = np.ones(len(F), bool)
+    keep[::7] = False  # holes all round: an open surface
+    w_open = ray_winding(V, F[keep], Q)
+    np.testing.assert_allclose(w_open, igl.winding_number(V, F[keep], Q), atol=1e-9)
+    assert np.any(np.abs(w_open - np.round(w_open)) > 0.01)
+
+
+def test_ray_winding_is_exact_where_the_rays_meet_edges_and_corners():
+    """Points placed so that the ray passes through a mesh vertex or along an edge in projection (the degenerate
+    cases of a crossing count) get the exact value: each vertex pushed 0.3 along its inward and outward normal."""
+    import igl
+    from vesselgp.inside import ray_winding, _RAY_FRAME
+
+    V, F = _torus()
+    N = igl.per_vertex_normals(V, F)
+    d = _RAY_FRAME[0]
+    k = np.arange(0, len(V), 5)
+    Q = np.vstack([V[k] - 0.3 * N[k], V[k] + 0.3 * N[k]])
+    # and the vertices themselves moved back along the ray: their rays pass exactly through a corner
+    Q = np.vstack([Q, V[k] - 1e-3 * d])
+    w = ray_winding(V, F, Q)
+    np.testing.assert_allclose(w, igl.winding_number(V, F, Q), atol=1e-9)
+    assert np.all(np.round(w[:len(k)]) == 1) and np.all(np.round(w[len(k):2 * len(k)]) == 0)
+
+
+def test_distance_is_exact_on_a_coarse_tube_axis_and_beside_long_cap_triangles():
+    """On the axis of a 12-gon tube every corner of a ring is equally far (the worst case of a nearest-vertex
+    bound) and the true distance is the apothem r cos(pi / 12); the caps' long fan triangles make the bound
+    wide. Few points (the k-d tree route) and many points (the AABB route) both give libigl's exact
+    distances; nearer_than decides at the apothem to 1e-9 either side."""
+    import igl
+    from vesselgp import tolerances as tol
+    from vesselgp.inside import SurfaceWinding
+
+    n, r = 12, 2.0
+    th = np.arange(n) * 2 * np.pi / n
+    rings = [np.c_[np.full(n, x), r * np.cos(th), r * np.sin(th)] for x in np.arange(0, 20.1, 1.5)]
+    V = np.vstack(rings + [[[0.0, 0.0, 0.0], [rings[-1][0, 0], 0.0, 0.0]]])
+    F = []
+    for k in range(len(rings) - 1):
+        for j in range(n):
+            a, b = k * n + j, k * n + (j + 1) % n
+            F += [[a, a + n, b + n], [a, b + n, b]]
+    c0, c1 = len(V) - 2, len(V) - 1
+    last = (len(rings) - 1) * n
+    F += [[c0, j, (j + 1) % n] for j in range(n)] + [[c1, last + (j + 1) % n, last + j] for j in range(n)]
+    F = np.array(F, np.int64)
+    sw = SurfaceWinding(V, F)
+    x = np.linspace(3.0, 17.0, 30)
+    few = np.c_[x, 0 * x, 0 * x]
+    many = np.vstack([few + [0, 0.3 * np.cos(a), 0.3 * np.sin(a)] for a in np.linspace(0, 6, 4)])
+    assert len(few) <= tol.INSIDE_FEW_POINTS < len(many)
+    for Q in (few, many, np.array([[0.5, 0.2, 0.1], [19.9, -0.3, 0.4]])):  # the last beside the cap fans
+        exact = np.sqrt(igl.point_mesh_squared_distance(Q, V, F)[0])
+        np.testing.assert_allclose(sw.distance(Q), exact, rtol=0, atol=1e-12)
+    apothem = r * np.cos(np.pi / n)
+    np.testing.assert_allclose(sw.distance(few), apothem, atol=1e-12)
+    assert sw.nearer_than(few, apothem + 1e-9).all() and not sw.nearer_than(few, apothem - 1e-9).any()
+    np.testing.assert_allclose(np.abs(sw.winding(few)), 1.0, atol=1e-12)
+
+
+def test_the_inside_check_builds_no_structure_over_the_whole_surface_for_a_few_samples():
+    """Checking a few hundred axis samples of a large tube neither builds libigl's AABB tree of all faces nor
+    its fast-winding-number tree (the cost issue #47 removed), and gives the exact answers."""
+    import igl
+    from vesselgp.inside import SurfaceWinding, check_axis_inside
+
+    V, F = _torus(n=400, m=60)  # 24k vertices
+    sw = SurfaceWinding(V, F)
+    t = np.linspace(0, 2 * np.pi, 300, endpoint=False)
+    P = np.c_[3.0 * np.cos(t), 3.0 * np.sin(t), 0 * t]
+    s = t / t[-1]
+    check_axis_inside(V, F, s, P, np.full(len(t), 1.0), winding=sw, ends_margin=0.0)
+    assert "_aabb" not in sw.__dict__
+    with pytest.raises(vesselgp.NotTubularError, match="comes within"):
+        check_axis_inside(V, F, s, P + [0.0, 0.0, 0.85], np.full(len(t), 1.0), winding=sw, ends_margin=0.0)
+    assert "_aabb" not in sw.__dict__
+    w = sw.winding(P + [0.0, 0.0, 1.2])
+    np.testing.assert_allclose(w, 0.0, atol=1e-12)

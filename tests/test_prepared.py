@@ -40,10 +40,12 @@ def test_twist_between_checks_each_scan_once():
         ("prepared.py", "checked_mesh"): "checked",
         ("mesh/topology.py", "mesh_topology"): "given a topology",
         ("mesh/ends.py", "found_ends"): "searched for ends",
-        ("inside.py", "__init__"): "closed for the winding number",  # SurfaceWinding
+        ("inside.py", "_grid"): "binned for the winding number's rays",  # SurfaceWinding's ray grid, built once
     }
     for key, what in once_per_scan.items():
         assert n.get(key, 0) == 2, f"each of the two scans is {what} once, got {n.get(key, 0)} calls of {key}"
+    # SurfaceWinding and its ray grid: one of each per scan
+    assert n.get(("inside.py", "__init__"), 0) == 4, n.get(("inside.py", "__init__"), 0)
     areas = n[("mesh/_geometry.py", "voronoi_areas")]
     geodesic_fans = n.get(("mesh/geodesic.py", "__init__"), 0)  # the heat method's closing fans add theirs
     assert areas == 2 + geodesic_fans

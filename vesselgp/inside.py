@@ -3,13 +3,16 @@
 A generalized cylinder's axis must run inside the lumen and keep clear of the
 wall. :func:`check_axis_inside` verifies that against the surface itself, not
 against the fit's own data: the generalized winding number (Jacobson et al.
-2013) of the surface with its open ends closed is about 1 inside and 0 outside,
-whatever holes or caps the mesh has; and the distance from the axis to the
-surface must be a fair fraction of the local radius.
+2013) of the surface with its open ends closed by fans is 1 inside and 0 outside;
+and the distance from the axis to the surface must be a fair fraction of the
+local radius.
 
-Both come from libigl on the triangles themselves: ``fast_winding_number`` of the
-surface with fan triangles closing each boundary loop (Barill et al. 2018), and an
-AABB tree's point-to-face distance. The check costs 30-100 ms on 12-48k vertices.
+Both are exact and cost what the axis samples need, not a structure over the
+whole surface (:class:`SurfaceWinding`, issue #47): the winding number counts
+the faces a ray from each sample crosses, the clearance comes from the nearest
+vertex with a proven bound and libigl's point-to-face distance where the bound
+cannot decide. On a 400k-face tube the check of 300 samples costs about 0.1 s
+(libigl's fast-winding-number and AABB trees took 0.85 s to build).
 
 :func:`check_axis_bend` is the second half of the check: a tube of radius ``r``
 about an axis of curvature ``kappa`` is the one-to-one image of its
@@ -20,26 +23,50 @@ the fit is not the vessel's centre line, whether or not it stays inside.
 """
 from __future__ import annotations
 
+import logging
+from functools import cached_property
+
 import igl
 import numpy as np
+from scipy.spatial import cKDTree
 
 from . import tolerances as tol
 from .errors import NotTubularError, OptionError
 from .mesh import bbox_diagonal, format_point, mesh_topology
 from .mesh._geometry import closed_by_fans
 
-__all__ = ["SurfaceWinding", "axis_winding", "check_axis_bend", "check_axis_inside", "sharp_bends"]
+log = logging.getLogger(__name__)
+
+__all__ = ["SurfaceWinding", "axis_winding", "ray_winding", "check_axis_bend", "check_axis_inside", "sharp_bends"]
 
 
 class SurfaceWinding:
-    """The closed surface and the distance tree of one mesh, kept for repeated axis checks.
+    """The closed surface of one mesh, kept for repeated axis checks: exact winding numbers and wall distances.
 
-    Built once per mesh (the fans over the boundary loops, libigl's fast-winding-number tree of
-    the closed triangles, ``FastWindingNumberBVH``, and its AABB tree of the faces); each call
-    then costs the winding number's tree-based sum (Barill et al. 2018, exact at this
-    resolution) and one distance query per point, so the paths of a tree are checked against one surface. (Until issue #34
-    the sum ran over 3000 thinned vertices as a point cloud: on the XCAT coronary tree's
-    0.4 mm branches, sampled too sparsely for it, it put 46 axis points outside that are
+    Built once per mesh (the fans over the boundary loops, :func:`vesselgp.mesh._geometry.closed_by_fans`);
+    each call answers for its query points only, at a cost that follows the points, not the surface
+    (issue #47: libigl's fast-winding-number tree and AABB tree of a 400k-face tube took 0.85 s to check
+    300 axis points):
+
+    * **Winding number** (Jacobson et al. 2013): the signed number of times the closed surface crosses
+      the ray ``q + t d``, ``t > 0`` (+1 where its normal points along the ray; ``d`` a fixed direction
+      along no coordinate axis, so that no grid or axis of the mesh lines up with it). For a closed, coherently
+      oriented surface this is the generalized winding number exactly, an integer. The faces whose
+      bounding box across the ray holds ``q`` are found through a grid of the faces' boxes, built once. The whole line ``q + t d`` must cross as often
+      outwards as inwards (it does on a closed surface); where it does not, or where the line grazes
+      an edge or a vertex, that point's winding number is libigl's direct sum over every face
+      (``igl.winding_number``), the same number computed the slow way.
+    * **Distance** to the mesh's faces (the fans excluded). The nearest vertex, at ``d_v``, bounds the
+      true distance ``d``: ``d <= d_v`` and ``d_v^2 <= d^2 + delta^2``, where ``delta`` (the longest edge
+      over sqrt(3)) bounds how far a point of a face lies from its nearest corner (Pythagoras: the
+      nearest point's offset is normal to its face or edge). :meth:`nearer_than`, the clearance test of
+      an axis, decides most points from ``d_v`` alone (a k-d tree of the vertices). An exact
+      :meth:`distance` of a few points (up to ``tolerances.INSIDE_FEW_POINTS``) runs libigl's
+      point-to-face distance over the faces with a corner within ``sqrt(d_v^2 + delta^2)``, which hold
+      the nearest; of more points, over libigl's AABB tree of every face (built once, on first use).
+
+    (Until issue #34 the sum ran over 3000 thinned vertices as a point cloud: on the XCAT coronary
+    tree's 0.4 mm branches, sampled too sparsely for it, it put 46 axis points outside that are
     inside.) :func:`axis_winding` is the one-off form.
 
     Parameters
@@ -49,6 +76,15 @@ class SurfaceWinding:
     loops : sequence of (k,) int64, optional
         Boundary loops following the faces' orientation
         (:attr:`vesselgp.mesh.MeshTopology.boundary_loops`, computed when omitted).
+
+    Examples
+    --------
+    >>> from vesselgp.synthetic import synthetic_vessel
+    >>> ves = synthetic_vessel("helix", radius=1.0, n_around=24)
+    >>> c = ves.truth.centers[len(ves.truth.centers) // 2]  # on the true axis, radius 1
+    >>> w, d = SurfaceWinding(ves.V, ves.F)(np.array([c, c + [0.0, 0.0, 5.0]]))
+    >>> np.round(np.abs(w), 6).tolist(), bool(abs(d[0] - 1.0) < 0.02)
+    ([1.0, 0.0], True)
     """
 
     def __init__(self, V, F, loops=None):
@@ -56,18 +92,203 @@ class SurfaceWinding:
             loops = mesh_topology(F, len(V)).boundary_loops
         self.shape = (len(V), len(F))
         self._V, self._F = np.ascontiguousarray(V, np.float64), np.ascontiguousarray(F, np.int64)
-        self._bvh = igl.FastWindingNumberBVH()  # built once, queried by every path of a tree
-        self._bvh.init(*closed_by_fans(self._V, self._F, loops))
-        self._tree = igl.AABB()
-        self._tree.init(self._V, self._F)
+        self._Vc, self._Fc = closed_by_fans(self._V, self._F, loops)
         self.scale = bbox_diagonal(V)
+
+    @cached_property
+    def _vertices(self):
+        """A k-d tree of the used vertices, their ids, and ``delta`` (see the class notes)."""
+        used = np.flatnonzero(np.bincount(self._F.ravel(), minlength=len(self._V)))
+        a, b, c = self._V[self._F[:, 0]], self._V[self._F[:, 1]], self._V[self._F[:, 2]]
+        longest = max(float(np.max(np.einsum("ij,ij->i", x, x), initial=0.0)) for x in (b - a, c - b, a - c))
+        return cKDTree(self._V[used], balanced_tree=False, compact_nodes=False), used, float(np.sqrt(longest / 3.0))
+
+    @cached_property
+    def _aabb(self):
+        tree = igl.AABB()
+        tree.init(self._V, self._F)
+        return tree
+
+    @cached_property
+    def _faces_of(self):
+        """Each vertex's faces: ``(face ids sorted by vertex, start of each vertex's run)``."""
+        order = np.argsort(self._F.ravel(), kind="stable")
+        return order // 3, np.searchsorted(self._F.ravel()[order], np.arange(len(self._V) + 1))
 
     def __call__(self, Q):
         """Winding number ``w`` (q,) and distance ``d`` (q,) to the surface of query points ``Q`` (q, 3)."""
-        Q = np.ascontiguousarray(Q, dtype=np.float64)
-        w = self._bvh.winding_number(Q)
-        d2 = self._tree.squared_distance(self._V, self._F, Q)[0]
-        return np.asarray(w, np.float64), np.sqrt(d2)
+        Q = np.ascontiguousarray(Q, dtype=np.float64).reshape(-1, 3)
+        return self.winding(Q), self.distance(Q)
+
+    def winding(self, Q):
+        """The generalized winding number of the closed surface at ``Q`` (q, 3): (q,) float64, exact."""
+        Q = np.ascontiguousarray(Q, dtype=np.float64).reshape(-1, 3)
+        return ray_winding(self._Vc, self._Fc, Q, self._grid)
+
+    @cached_property
+    def _grid(self):
+        return _ColumnGrid(self._Vc, self._Fc)
+
+    def distance(self, Q):
+        """Distance from ``Q`` (q, 3) to the mesh's nearest face: (q,) float64, exact."""
+        Q = np.ascontiguousarray(Q, dtype=np.float64).reshape(-1, 3)
+        if not len(Q):
+            return np.zeros(0)
+        if len(Q) > tol.INSIDE_FEW_POINTS:  # many points: libigl's AABB tree of every face, built once
+            return np.sqrt(np.asarray(self._aabb.squared_distance(self._V, self._F, Q)[0], np.float64))
+        kd, used, delta = self._vertices
+        face_of, starts = self._faces_of
+        dv = kd.query(Q)[0]
+        near = kd.query_ball_point(Q, np.sqrt(dv ** 2 + delta ** 2) * (1.0 + tol.INSIDE_BALL_SLACK))
+        verts = used[np.unique(np.concatenate([np.asarray(n, np.int64) for n in near]))]
+        n = starts[verts + 1] - starts[verts]
+        faces = np.unique(face_of[np.repeat(starts[verts], n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)])
+        d2 = igl.point_mesh_squared_distance(Q, self._V, self._F[faces])[0]
+        return np.sqrt(np.asarray(d2, np.float64))
+
+    def nearer_than(self, Q, limit):
+        """Whether each point of ``Q`` (q, 3) lies nearer the mesh's faces than ``limit`` (q,): (q,) bool, exact.
+
+        The nearest vertex decides most points (``d <= d_v`` and ``d >= sqrt(d_v^2 - delta^2)``, see the
+        class notes); :meth:`distance` decides the rest.
+        """
+        Q = np.ascontiguousarray(Q, dtype=np.float64).reshape(-1, 3)
+        limit = np.broadcast_to(np.asarray(limit, np.float64), (len(Q),))
+        if not len(Q):
+            return np.zeros(0, bool)
+        kd, used, delta = self._vertices
+        dv = kd.query(Q)[0]
+        near = dv < limit
+        unsure = ~near & (dv ** 2 - delta ** 2 < limit ** 2)
+        if unsure.any():
+            near[unsure] = self.distance(Q[unsure]) < limit[unsure]
+        return near
+
+
+def _ray_frame():
+    """Rows: the rays' direction, then two unit vectors across it (a right-handed frame). The direction
+    is no coordinate axis, so that a mesh laid out on a grid or along an axis (a straight synthetic
+    tube, its fans' centres on the axis) is not met by the rays along its edges or through its corners."""
+    d = np.array([1.0, np.sqrt(2.0) - 1.0, np.pi - 3.0])
+    d /= np.linalg.norm(d)
+    e1 = np.cross(d, [0.0, 0.0, 1.0])
+    e1 /= np.linalg.norm(e1)
+    return np.stack([d, e1, np.cross(d, e1)])
+
+
+_RAY_FRAME = _ray_frame()
+
+
+class _ColumnGrid:
+    """The faces of a surface, in the rays' frame (:func:`_ray_frame`; ``W`` its vertices there: along
+    the ray first), binned by the grid cells across the ray their bounding boxes touch (cells
+    ``tolerances.INSIDE_RAY_CELL`` median edges wide), built once: :meth:`pairs` gives the faces whose
+    box may hold a point's position across the ray, those its ray can cross."""
+
+    def __init__(self, V, F):
+        self.W = V @ _RAY_FRAME.T
+        Y, Z = self.W[:, 1], self.W[:, 2]
+        ya, yb, yc, za, zb, zc = Y[F[:, 0]], Y[F[:, 1]], Y[F[:, 2]], Z[F[:, 0]], Z[F[:, 1]], Z[F[:, 2]]
+        self.h = tol.INSIDE_RAY_CELL * float(np.median(np.abs(yb - ya) + np.abs(zb - za))) or 1.0
+        lo = np.stack([np.minimum(np.minimum(ya, yb), yc), np.minimum(np.minimum(za, zb), zc)], 1)
+        hi = np.stack([np.maximum(np.maximum(ya, yb), yc), np.maximum(np.maximum(za, zb), zc)], 1)
+        self.off = np.floor(lo.min(axis=0, initial=np.inf) / self.h) - 1 if len(F) else np.zeros(2)
+        lo, hi = self._cell(lo), self._cell(hi)
+        self.shape = hi.max(axis=0, initial=0) + 2
+        n0, n1 = hi[:, 0] - lo[:, 0] + 1, hi[:, 1] - lo[:, 1] + 1
+        count = n0 * n1
+        face = np.repeat(np.arange(len(F)), count)
+        k = np.arange(len(face)) - np.repeat(np.cumsum(count) - count, count)
+        key = (lo[face, 0] + k // n1[face]) * self.shape[1] + lo[face, 1] + k % n1[face]
+        order = np.argsort(key, kind="stable")
+        self.face, self.key = face[order], key[order]
+        # closed: every edge is run as often one way as the other (then a line crosses as often in as out)
+        a, b = F.ravel(), F[:, [1, 2, 0]].ravel()
+        edge = np.unique(np.minimum(a, b) * np.int64(len(V)) + np.maximum(a, b), return_inverse=True)[1]
+        self.closed = not np.any(np.bincount(edge, weights=np.where(a < b, 1.0, -1.0)))
+
+    def _cell(self, P):
+        return (np.floor(P / self.h) - self.off).astype(np.int64)
+
+    def pairs(self, Qp):
+        """``(face, query)`` index pairs, (k,) int64 each, for query points ``Qp`` (q, 2) across the ray."""
+        c = self._cell(Qp)
+        valid = np.all((c >= 0) & (c < self.shape), axis=1)
+        key = np.where(valid, c[:, 0] * self.shape[1] + c[:, 1], -1)
+        a, b = np.searchsorted(self.key, key, "left"), np.searchsorted(self.key, key, "right")
+        n = np.where(valid, b - a, 0)
+        pq = np.repeat(np.arange(len(Qp)), n)
+        pf = self.face[np.repeat(a, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
+        return pf, pq
+
+
+def ray_winding(V, F, Q, grid=None):
+    """Generalized winding number of a closed, coherently oriented surface at ``Q``, exactly, by rays.
+
+    See :class:`SurfaceWinding`: the signed crossings of the ray ``q + t d`` (``t > 0``); a point whose
+    whole line does not cross as often in as out, or whose line meets an edge or corner of a face in
+    projection, gets libigl's direct sum (``igl.winding_number``) instead, and so does every point when
+    the surface is not closed (an edge run more often one way than the other).
+
+    Parameters
+    ----------
+    V : (n, 3) float64
+    F : (m, 3) int64
+        A closed surface (every edge run as often one way as the other), e.g. :func:`closed_by_fans`; any
+        other gets the direct sum (exact, slower).
+    Q : (q, 3) float64
+    grid : optional
+        The faces' column grid when already built (:class:`SurfaceWinding` keeps one).
+
+    Returns
+    -------
+    (q,) float64
+        +1 inside a surface whose normals point out, -1 inside one whose normals point in, 0 outside.
+
+    Examples
+    --------
+    A unit cube, its faces turned outwards: a point inside, one outside, one on the cube's mid-plane.
+
+    >>> V = np.array([[x, y, z] for x in (0.0, 1) for y in (0.0, 1) for z in (0.0, 1)])
+    >>> F = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+    ...               [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    >>> np.round(ray_winding(V, F, np.array([[0.5, 0.3, 0.6], [1.5, 0.3, 0.6], [0.2, 0.5, 0.5]])), 9).tolist()
+    [1.0, 0.0, 1.0]
+    """
+    Q = np.ascontiguousarray(Q, np.float64).reshape(-1, 3)
+    w = np.zeros(len(Q))
+    if not len(Q) or not len(F):
+        return w
+    grid = _ColumnGrid(V, F) if grid is None else grid
+    if not grid.closed:  # a ray's count is the winding number of a closed surface only
+        log.debug("winding numbers: the surface is not closed; summed directly over its %d faces", len(F))
+        return np.asarray(igl.winding_number(V, F, Q), np.float64)
+    Q = Q @ _RAY_FRAME.T  # in the rays' frame: along the ray first
+    pf, pq = grid.pairs(Q[:, 1:])
+    T = grid.W[F[pf]]  # (pairs, 3, 3)
+    a, b, c = T[:, 0, 1:] - Q[pq, 1:], T[:, 1, 1:] - Q[pq, 1:], T[:, 2, 1:] - Q[pq, 1:]
+    # twice the signed areas of the projected sub-triangles (q, b, c), (q, c, a), (q, a, b)
+    u = b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]
+    v = c[:, 0] * a[:, 1] - c[:, 1] * a[:, 0]
+    t = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    pos, neg = (u > 0) & (v > 0) & (t > 0), (u < 0) & (v < 0) & (t < 0)
+    inside = pos | neg
+    graze = ~inside & (((u >= 0) & (v >= 0) & (t >= 0)) | ((u <= 0) & (v <= 0) & (t <= 0)))  # on an edge
+    area = u + v + t
+    ok = inside & (area != 0)
+    x = (u[ok] * T[ok, 0, 0] + v[ok] * T[ok, 1, 0] + t[ok] * T[ok, 2, 0]) / area[ok]
+    sign = np.where(pos[ok], 1.0, -1.0)  # the face's normal along the ray: its projection turns counter-clockwise
+    ahead = x > Q[pq[ok], 0]
+    np.add.at(w, pq[ok][ahead], sign[ahead])
+    total = np.zeros(len(Q))
+    np.add.at(total, pq[ok], sign)
+    unsure = total != 0
+    unsure[pq[graze]] = True
+    if unsure.any():
+        log.debug("winding numbers: %d of %d rays met an edge or an open surface; summed directly",
+                  int(unsure.sum()), len(Q))
+        w[unsure] = np.asarray(igl.winding_number(grid.W, F, Q[unsure]), np.float64)
+    return w
 
 
 def axis_winding(V, F, Q, loops=None):
@@ -130,13 +351,15 @@ def check_axis_inside(V, F, s, points, radii, *, loops=None, ends_margin=None, w
     elif winding.shape != (len(V), len(F)):
         raise OptionError(f"winding was built for a mesh of {winding.shape[0]} vertices and {winding.shape[1]} "
                           f"faces, not this one ({len(V)}, {len(F)}); build SurfaceWinding(V, F) of this mesh")
-    w, d = winding(points[keep])
+    w = winding.winding(points[keep])
     outside = np.abs(w) < tol.INSIDE_WINDING
-    grazing = d < tol.INSIDE_CLEARANCE * radii[keep]
+    grazing = winding.nearer_than(points[keep], tol.INSIDE_CLEARANCE * radii[keep])
     bad = outside | grazing
     if not bad.any():
         return
     k = int(np.flatnonzero(bad)[0])
+    d = np.zeros(len(w))
+    d[k] = winding.distance(points[keep][k])[0]
     where = f"at s = {s[keep][k]:.3f} (point {format_point(points[keep][k], winding.scale)})"
     what = (f"leaves the surface {where}, on {int(outside.sum())} of {int(keep.sum())} checked samples"
             if outside[k] else

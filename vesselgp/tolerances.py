@@ -132,6 +132,13 @@ GC_ARCLENGTH_CHORDS_PER_NODE = 32
 INSIDE_WINDING = 0.5
 #: An axis sample nearer the wall than this fraction of the local radius grazes it.
 INSIDE_CLEARANCE = 0.2
+#: Relative slack on the ball of corners searched for a point's nearest face (rounding of the bound).
+INSIDE_BALL_SLACK = 1e-9
+#: The grid that finds the faces a winding-number ray crosses has cells this many median edges wide.
+INSIDE_RAY_CELL = 4.0
+#: Up to this many points, a distance to the wall is found among the faces near each point (a k-d tree of
+#: the vertices); more build libigl's AABB tree of every face once (vesselgp.inside.SurfaceWinding).
+INSIDE_FEW_POINTS = 64
 #: A fitted axis must bend less tightly than its radius: curvature x radius below this
 #: (1: the tube's normal sections do not overlap; vesselgp.inside.check_axis_bend).
 GC_MAX_BEND = 1.0
@@ -540,9 +547,19 @@ BRANCH_PATH_RADII = 2.0
 
 
 # --- medial centre lines (vesselgp.centerlines) ---
-#: At most this many surface vertices (spread evenly) span the Delaunay tessellation whose inside
-#: circumcentres are the Voronoi vertices (qhull's time grows a little faster than linearly).
-MEDIAL_MAX_POINTS = 16000
+#: A surface of at most this many vertices is tessellated whole for its Voronoi vertices (qhull takes
+#: them in about a second). Thinning moves the Voronoi vertices a little, and where two junctions lie
+#: about TREE_JUNCTION_MERGE radii apart (the arches of ../shared/data/real) that decides whether they
+#: are one junction zone: the real meshes keep the topology they had.
+MEDIAL_ALL_POINTS = 16000
+#: A larger surface's points for the Voronoi vertices are spread at about this
+#: many local radii (the lumen's radius of curvature across the wall, estimated per vertex: issue #47):
+#: a thin branch keeps its points, a wide trunk keeps few (about 30 around a marching-cubes lumen, whose
+#: estimate reads 0.7 radii; 0.45 and 0.6 moved the renal-iliac tree's landmarks enough to miss its twist).
+MEDIAL_SAMPLE_RADII = 0.3
+#: Passes of 1-ring averaging of the vertex normals and then of the log radii of that estimate
+#: (the normals of a marching-cubes or staircase surface scatter from vertex to vertex).
+MEDIAL_RADIUS_SMOOTHING = 2
 #: A tetrahedron is flat (no circumcentre) when 2 b.(c x d) is below this times its longest edge cubed.
 MEDIAL_FLAT_TET = 1e-12
 #: Least cost of a Voronoi edge (length over radius), so that co-spherical tetrahedra (one
