@@ -58,14 +58,14 @@ def _errors(truth, P):
     return float(e.max()), float(e.mean())
 
 
-def _vmtk(python, stl, truth, tmp):
+def _vmtk(python, stl, truth, tmp, timeout=None):
     """VMTK's tree on the same mesh: stage timings and the error of its centre lines."""
     src = truth.ends[0].center
     tg = np.concatenate([e.center for e in truth.tips])
     out = os.path.join(tmp, "vmtk.npz")
     cmd = [str(python), str(PEER), str(stl), "--source", *map(str, src), "--targets", *map(str, tg),
            "--delaunay", "qhull", "-o", out]
-    res = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    res = subprocess.run(cmd, capture_output=True, text=True, check=True, timeout=timeout)
     tm = json.loads(res.stdout.strip().splitlines()[-1])["timings_s"]
     z = np.load(out)
     lines = [z[k] for k in z.files if k.endswith("_points")]
@@ -181,12 +181,82 @@ def tree_markdown(rows):
     return "\n".join(L)
 
 
+def _fit_row(label, V, F, truth, vmtk_python, repeat):
+    """One row of the growth tables: vertices, ends found, fit time, the exact-truth error, VMTK beside."""
+    from vesselgp import fit_vessel_tree
+    from vesselgp.io import write_mesh
+
+    row = {"case": label, "vertices": len(V), "tips": len(truth.tips)}
+    t, tree = timeit(lambda: fit_vessel_tree(V, F), repeat)
+    row["fit_vessel_tree_s"] = t
+    row["ends_found"] = len(tree.ends)
+    errs = [_errors(truth, p.dense_points) for p in tree.paths]
+    row["axis_max_pct"] = max(e[0] for e in errs)
+    row["axis_mean_pct"] = float(np.mean([e[1] for e in errs]))
+    if vmtk_python is not None and PEER.exists() and len(V) <= VMTK_GROWTH_MAX_VERTICES:
+        with tempfile.TemporaryDirectory(prefix="vesselgp-vmtk-") as tmp:
+            stl = os.path.join(tmp, "tree.stl")
+            write_mesh(stl, V, F)
+            try:
+                row.update(_vmtk(vmtk_python, stl, truth, tmp, timeout=VMTK_TIMEOUT_S))
+                row["vmtk_over_tree"] = (row["vmtk_centerline_s"] + row["vmtk_branch_split_s"]) / t
+            except subprocess.TimeoutExpired:
+                row["vmtk_centerline_s"] = f"> {VMTK_TIMEOUT_S}"
+    return row
+
+
+#: VMTK is stopped after this long on one growth-table tree (it did not finish a 321k-vertex tree in 25 min) ...
+VMTK_TIMEOUT_S = 600
+#: ... and runs only on the trees up to this size (its branch splitting took 147 s on the 27k-vertex tree).
+VMTK_GROWTH_MAX_VERTICES = 60_000
+
+
+def growth(vertex_scales=(1, 2, 4, 8), tips=(4, 16, 64, 128), repeat=1, vmtk_python=None, base=27_000):
+    """The growth tables of issue #47: the 4-tip tree at 1, 2, 4 and 8 times ``base`` vertices; trees of
+    ``synthetic_arterial_tree`` with 4-128 tips (thinnest 0.35 mm at a 0.25 mm voxel); and the 80-end tree of
+    about 300k vertices. Each row: time, ends found, error against the exact centre lines, VMTK beside."""
+    from vesselgp.synthetic import synthetic_arterial_tree, synthetic_tree
+
+    rows = []
+    for k in vertex_scales:
+        t = synthetic_tree(levels=2, target_vertices=int(base * k))
+        rows.append({"table": "vertices", **_fit_row(f"4 tips, {k}x", t.V, t.F, t.truth, vmtk_python, repeat)})
+        print("   ", rows[-1], flush=True)
+    for n in tips:
+        t = synthetic_arterial_tree(n)
+        rows.append({"table": "tips", **_fit_row(f"{n} tips", t.V, t.F, t.truth, vmtk_python, repeat)})
+        print("   ", rows[-1], flush=True)
+    t = synthetic_arterial_tree(79, voxel=FOREST_80_VOXEL)
+    rows.append({"table": "80 ends", **_fit_row("79 tips + root", t.V, t.F, t.truth, vmtk_python, 1)})
+    print("   ", rows[-1], flush=True)
+    return rows
+
+
+#: The voxel that gives the 80-end tree (79 tips) about 300k vertices.
+FOREST_80_VOXEL = 0.264
+
+
+def growth_markdown(rows):
+    f = number
+    L = ["| table | case | vertices | tips | ends found | fit_vessel_tree (s) | s per 100k vertices | axis max / mean (% r) "
+         "| VMTK lines + split (s) | VMTK / ours |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        vm = r.get("vmtk_centerline_s")
+        vt = (f"{f(vm + r['vmtk_branch_split_s'])}" if isinstance(vm, float) else (vm or "-"))
+        L.append(f"| {r['table']} | {r['case']} | {r['vertices']:,} | {r['tips']} | {r['ends_found']} "
+                 f"| {f(r['fit_vessel_tree_s'])} | {f(1e5 * r['fit_vessel_tree_s'] / r['vertices'])} "
+                 f"| {f(r['axis_max_pct'], 2)} / {f(r['axis_mean_pct'], 3)} | {vt} | {f(r.get('vmtk_over_tree'), 1)} |")
+    return "\n".join(L)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", default="27k,50k,200k")
     ap.add_argument("--staircase-sizes", default="27k",
                     help="sizes of the segmentation-like (smoothed voxel staircase) tree, VMTK beside the ~27k one")
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--growth", action="store_true",
+                    help="instead, the growth tables of issue #47 (vertices 1-8x, 4-128 tips, the 80-end tree)")
     add_vmtk_options(ap)
     ap.add_argument("--json", default=str(REPO / "bench-results" / "bench_tree.json"))
     args = ap.parse_args(argv)
@@ -194,6 +264,13 @@ def main(argv=None):
 
     logging.basicConfig(level=logging.ERROR)
     vm = vmtk_from_args(args)
+    if args.growth:
+        rows = growth(repeat=1, vmtk_python=vm)
+        print(growth_markdown(rows))
+        out = Path(args.json).with_name("bench_tree_growth.json")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps({"rows": rows}, indent=1))
+        return 0
     rows = []
     jobs = [(tok, "exact") for tok in args.sizes.split(",") if tok.strip()]
     jobs += [(tok, "staircase") for tok in args.staircase_sizes.split(",") if tok.strip()]

@@ -1432,6 +1432,67 @@ MUTATIONS = {
         '    for c, out, rs in ():',
         ["tests/test_sacs.py::test_a_side_wall_sac_is_passed_by_not_taken_for_an_end"],
     ),
+    # issue #47: the inside check without whole-surface trees, the Voronoi sample by local radius
+    "ray_crossing_sign_ignored": (
+        "vesselgp/inside.py",
+        "    sign = np.where(pos[ok], 1.0, -1.0)  # the face's normal along the ray: its projection turns counter-clockwise",
+        "    sign = np.ones(int(ok.sum()))",
+        ["tests/test_inside.py"],
+    ),
+    "ray_counts_behind_the_point": (
+        "vesselgp/inside.py",
+        "    ahead = x > Q[pq[ok], 0]",
+        "    ahead = x < Q[pq[ok], 0]",
+        ["tests/test_inside.py"],
+    ),
+    "distance_bound_without_delta": (
+        "vesselgp/inside.py",
+        "        unsure = ~near & (dv ** 2 - delta ** 2 < limit ** 2)",
+        "        unsure = ~near & (dv ** 2 < limit ** 2)",
+        ["tests/test_inside.py"],
+    ),
+    "distance_ball_without_delta": (
+        "vesselgp/inside.py",
+        "        near = kd.query_ball_point(Q, np.sqrt(dv ** 2 + delta ** 2) * (1.0 + tol.INSIDE_BALL_SLACK))",
+        "        near = kd.query_ball_point(Q, dv * (1.0 + tol.INSIDE_BALL_SLACK))",
+        ["tests/test_inside.py"],
+    ),
+    "lumen_radius_normals_not_turned_in": (
+        "vesselgp/centerlines.py",
+        "    if volume > 0:  # outward normals: turn them into the lumen",
+        "    if volume < 0:  # outward normals: turn them into the lumen",
+        ["tests/test_medial_sample.py"],
+    ),
+    "medial_sample_ignores_radius": (
+        "vesselgp/centerlines.py",
+        "    level = np.floor(2.0 * np.log2(r)).astype(np.int64)",
+        "    level = np.zeros(len(r), np.int64) + int(np.floor(2.0 * np.log2(np.median(r))))",
+        ["tests/test_medial_sample.py"],
+    ),
+    "assign_far_vertices_not_rechecked": (
+        "vesselgp/branches.py",
+        "    far = np.flatnonzero(best > tol.TREE_ASSIGN_REACH)",
+        "    far = np.zeros(0, np.int64)",
+        ["tests/test_branches.py"],
+    ),
+    "voronoi_tessellated_again_for_the_tree": (
+        "vesselgp/tree.py",
+        "    br = decomposed(V, Fg, ends, root, voronoi=pm.voronoi)",
+        "    br = decomposed(V, Fg, ends, root, loops=topo.boundary_loops)",
+        ["tests/test_anatomy.py"],
+    ),
+    "parting_measures_a_chunk_twice": (
+        "vesselgp/branches.py",
+        "        d = np.concatenate([d, tree_b.query(Pa[len(d):n])[0]])",
+        "        d = np.concatenate([d, tree_b.query(Pa[max(len(d) - 1, 0):n - 1])[0]])",
+        ["tests/test_branches.py"],
+    ),
+    "medial_all_points_off_by_one": (
+        "vesselgp/centerlines.py",
+        "    if used.sum() <= tol.MEDIAL_ALL_POINTS:",
+        "    if used.sum() < tol.MEDIAL_ALL_POINTS:",
+        ["tests/test_medial_sample.py"],
+    ),
 }
 
 

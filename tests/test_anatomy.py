@@ -89,18 +89,29 @@ def _on_the_true_centre_lines(tree, truth, caps):
                                                                              np.arange(1, len(L))])[0])
     assert inner.sum() > 40 and np.max(d / asc.radii[inner]) < 0.05
 
-def test_a_flat_patch_no_axis_reaches_is_taken_for_the_missed_vessels_cap(arches, caplog):
+def test_a_flat_patch_no_axis_reaches_is_taken_for_the_missed_vessels_cap(arches, caplog, monkeypatch):
     """The arch whose root flares at 40-50 degrees into its sinuses (1.5 amplitude): the wall meets that cap's
     rim along 74 % of it only, so vessel_ends does not take it for a cap; it reports it (a flat patch that is
     not a cap, 132 faces, radius 13.9) instead of dropping it. No centre line from the ends found reaches it, so
     the tree fit takes it for the cap of the vessel whose end was missed (a WARNING names it) and fits the arch
     as it is: five ends, the root that cap, no bulge (without it, the ascending aorta was a bulge of 1.57x on the
-    path from the descending aorta, exit 0)."""
+    path from the descending aorta, exit 0). The centre lines are drawn twice (the ends found, then with that
+    cap) on one tessellation (issue #47)."""
+    import vesselgp.centerlines as cl
+
     V, F, truth, caps = arches["flared"]
     pm = PreparedMesh(V, F)
+    tessellated = []
+    inside_voronoi = cl._inside_voronoi
+    monkeypatch.setattr(cl, "_inside_voronoi", lambda *a: tessellated.append(1) or inside_voronoi(*a))
+    drawn = []
+    lines = cl.centerlines
+    monkeypatch.setattr(vesselgp.tree, "centerlines", lambda *a, **k: drawn.append(1) or lines(*a, **k))
+    monkeypatch.setattr(vesselgp.branches, "centerlines", lambda *a, **k: drawn.append(1) or lines(*a, **k))
     with caplog.at_level(logging.INFO, logger="vesselgp"):
         assert len(pm.ends) == 4 and len(pm.flat_patches) == 1
         tree = vesselgp.fit_vessel_tree(pm)
+    assert len(drawn) == 2 and len(tessellated) == 1
     said = " ".join(r.getMessage() for r in caplog.records)
     assert "is not a cap: its rim is met by the wall" in said and "no centre line reaches the flat patch" in said
     assert np.linalg.norm(pm.flat_patches[0].end.center - caps[0][0]) < CENTER_RADII * caps[0][2]

@@ -128,3 +128,59 @@ def test_a_child_starts_where_it_leaves_the_inscribed_spheres():
     P = np.array([[1.99, 0, 0], [2.01, 0, 0], [0, 0.5, 0]])
     others = [(np.zeros((1, 3)), np.array([2.0])), (np.array([[10.0, 0, 0]]), np.array([0.1]))]
     assert _covered(P, others).tolist() == [True, False, True]
+
+
+def test_each_vertex_is_measured_against_the_branches_within_reach_with_the_same_result_as_against_all():
+    """Issue #47: a vertex is compared only with the branches whose line passes within TREE_ASSIGN_REACH of their
+    widest inscribed radii (and with all of them when none does). On a wide trunk line, a thin line starting at
+    its wall, a third line far off, and vertices near each and far from all, it gives the least ratio over ALL
+    lines, computed here by brute force."""
+    from vesselgp import tolerances as tol
+    from vesselgp.branches import _vertex_branch
+
+    s = np.linspace(0.0, 1.0, 60)[:, None]
+    trunk = (np.array([0.0, 0, 0]) + s * [60.0, 0, 0], np.full(60, 6.0))
+    thin = (np.array([30.0, 6.5, 0]) + s * [0.0, 20.0, 0], np.full(60, 0.8))
+    far = (np.array([0.0, 80.0, 40.0]) + s * [0.0, 0, 30.0], np.full(60, 10.0))
+    lines = [trunk[0], thin[0], far[0]]
+    radius = [trunk[1], thin[1], far[1]]
+    rng = np.random.default_rng(5)
+    V = np.vstack([rng.uniform([-10, -10, -10], [70, 30, 10], (3000, 3)),   # about the trunk and the thin line
+                   rng.uniform([-5, 75, 35], [5, 85, 75], (300, 3)),         # about the far line
+                   rng.uniform([-250, 60, 40], [-150, 100, 70], (50, 3))])  # beyond every reach: the far line's
+    ratio = np.stack([np.min(np.linalg.norm(V[:, None] - P[None], axis=2) / R[None], axis=1)
+                      for P, R in zip(lines, radius)], axis=1)  # nearest line point (its radius) by brute force
+    got = _vertex_branch(V, lines, radius)
+    # the brute force takes every point of the lines; _vertex_branch resamples them: compare where the choice is clear
+    top2 = np.sort(ratio, axis=1)[:, :2]
+    clear = top2[:, 1] > 1.05 * top2[:, 0]
+    assert np.array_equal(got[clear], np.argmin(ratio, axis=1)[clear])
+    assert clear.mean() > 0.95
+    assert np.all(got[-50:] == 2) and np.all(ratio[-50:].min(axis=1) > tol.TREE_ASSIGN_REACH)
+
+
+@pytest.mark.parametrize("part_at", [10, 63, 64, 65, 200, 700, None])
+def test_the_parting_of_two_lines_measured_in_pieces_is_the_parting_of_the_whole_lines(part_at):
+    """Two lines of 800 samples together up to sample ``part_at`` (then one turns away; None: never), measured in
+    growing pieces from the start: the junction index is the one the whole lines give (TREE_SPLIT, TREE_MEET
+    applied to every sample's distance, here by brute force)."""
+    from scipy.spatial import cKDTree
+
+    from vesselgp import tolerances as tol
+    from vesselgp.branches import _parting
+
+    t = np.linspace(0.0, 80.0, 800)
+    b = np.c_[t, 0 * t, 0 * t]
+    k = len(t) if part_at is None else part_at
+    a = b.copy()
+    a[k:, 1] = 0.05 * (t[k:] - t[k - 1]) ** 2  # leaves b smoothly
+    R = np.full(len(t), 1.0)
+    d = np.array([np.min(np.linalg.norm(b - p, axis=1)) for p in a])
+    far = np.flatnonzero(d > tol.TREE_SPLIT * R)
+    if far.size:
+        near = np.flatnonzero(d[:far[0]] <= tol.TREE_MEET * R[:far[0]])
+        want = int(near[-1]) if near.size else 0
+    else:
+        want = len(a) - 1
+    assert _parting(a, R, cKDTree(b)) == want
+    assert part_at is None or abs(want - part_at) < 40  # the brute force sees the turn

@@ -326,3 +326,19 @@ def test_the_inside_check_builds_no_structure_over_the_whole_surface_for_a_few_s
     assert "_aabb" not in sw.__dict__
     w = sw.winding(P + [0.0, 0.0, 1.2])
     np.testing.assert_allclose(w, 0.0, atol=1e-12)
+
+
+def test_distance_finds_a_large_face_whose_corners_are_farther_than_another_faces_corner():
+    """A point 1 above the middle of a large triangle (corners 10 away) and 5 from a small triangle's corner: the
+    nearest vertex is the small one's, the nearest face the large one (distance 1), found through the ball of
+    radius sqrt(d_v^2 + delta^2), not d_v."""
+    from vesselgp.inside import SurfaceWinding
+
+    big = 10.0 * np.array([[1.0, 0, 0], [-0.5, 0.866, 0], [-0.5, -0.866, 0]])
+    small = np.array([[0.0, 0.0, 6.0], [0.3, 0.0, 6.2], [0.0, 0.3, 6.2]])
+    V = np.vstack([big, small])
+    F = np.array([[0, 1, 2], [3, 4, 5]], np.int64)
+    sw = SurfaceWinding(V, F)
+    Q = np.array([[0.0, 0.0, 1.0]])
+    np.testing.assert_allclose(sw.distance(Q), [1.0], atol=1e-12)
+    assert sw.nearer_than(Q, [1.0 + 1e-9])[0] and not sw.nearer_than(Q, [1.0 - 1e-9])[0]

@@ -131,9 +131,16 @@ def _agglomerate(tips, share):
 
 
 def _parting(Pa, Ra, tree_b):
-    """Index on line ``a`` of its junction with line ``b`` (its k-d tree; see the module notes)."""
-    d = tree_b.query(Pa)[0]
-    far = np.flatnonzero(d > tol.TREE_SPLIT * Ra)
+    """Index on line ``a`` of its junction with line ``b`` (its k-d tree; see the module notes). Line ``a`` is
+    measured from its start in growing pieces until it parts, not all of it (a large tree's lines part near
+    their start from most others: issue #47)."""
+    d, n = np.zeros(0), tol.TREE_PARTING_CHUNK
+    while True:
+        d = np.concatenate([d, tree_b.query(Pa[len(d):n])[0]])
+        far = np.flatnonzero(d > tol.TREE_SPLIT * Ra[:len(d)])
+        if far.size or len(d) == len(Pa):
+            break
+        n *= 2
     if not far.size:  # a runs inside b all the way
         return len(Pa) - 1
     near = np.flatnonzero(d[:far[0]] <= tol.TREE_MEET * Ra[:far[0]])
@@ -241,16 +248,34 @@ def _vertex_branch(V, lines, radius):
     around a thin branch's mouth to the thin branch, whose line passes closer to it than the
     trunk's own.
     """
-    ratio = np.empty((len(V), len(lines)))
-    for b, (P, R) in enumerate(zip(lines, radius)):
+    samples = []
+    for P, R in zip(lines, radius):
         arc = chord_length(P)
         k = int(np.clip(np.ceil(arc[-1] / (0.25 * float(np.min(R)))), 2, tol.TREE_LINE_SAMPLES)) + 1
         Q = resample_arclength(P, k)
         aq = chord_length(Q)
-        Rq = np.interp(aq * (arc[-1] / aq[-1]), arc, R)  # the samples' arc length on the line
-        d, i = cKDTree(Q).query(V)
-        ratio[:, b] = d / Rq[i]
-    return np.argmin(ratio, axis=1).astype(np.int64)
+        samples.append((Q, np.interp(aq * (arc[-1] / aq[-1]), arc, R)))  # the samples' arc length on the line
+    best = np.full(len(V), np.inf)
+    branch = np.zeros(len(V), np.int64)
+
+    def nearer(b, ids):
+        Q, Rq = samples[b]
+        d, i = cKDTree(Q).query(V[ids])
+        r = d / Rq[i]
+        win = r < best[ids]
+        best[ids[win]], branch[ids[win]] = r[win], b
+
+    # a branch farther from a vertex than TREE_ASSIGN_REACH of its widest inscribed radius has a ratio above
+    # that: only the vertices within that reach of its samples' box are measured against it ...
+    for b, (Q, Rq) in enumerate(samples):
+        m = tol.TREE_ASSIGN_REACH * float(np.max(Rq))
+        lo, hi = Q.min(axis=0) - m, Q.max(axis=0) + m
+        nearer(b, np.flatnonzero(np.all((V >= lo) & (V <= hi), axis=1)))
+    # ... and a vertex whose best ratio is above it is measured against every branch (the same least ratio)
+    far = np.flatnonzero(best > tol.TREE_ASSIGN_REACH)
+    for b in range(len(samples) if far.size else 0):
+        nearer(b, far)
+    return branch
 
 
 def branch_decomposition(V, F, ends, root=None, *, loops=None, lines=None):
@@ -293,14 +318,15 @@ def branch_decomposition(V, F, ends, root=None, *, loops=None, lines=None):
     return decomposed(V, F, ends, root, loops=loops, lines=lines)
 
 
-def decomposed(V, F, ends, root=None, *, loops=None, lines=None):
-    """:func:`branch_decomposition` of validated arrays (a :class:`vesselgp.PreparedMesh`'s), not checked again."""
+def decomposed(V, F, ends, root=None, *, loops=None, lines=None, voronoi=None):
+    """:func:`branch_decomposition` of validated arrays (a :class:`vesselgp.PreparedMesh`'s), not checked again;
+    ``voronoi``, the mesh's :class:`vesselgp.centerlines.VoronoiDiagram` when already built."""
     if len(ends) < 3:
         raise EndsError(f"a tree needs at least three ends, the mesh has {len(ends)}; "
                         "fit a single vessel with vesselgp.fit_generalized_cylinder")
     root = root_end(ends, root)
     if lines is None:
-        lines = centerlines(V, F, ends, root, loops=loops)
+        lines = centerlines(V, F, ends, root, loops=loops, voronoi=voronoi)
     topo = _Topology(lines, lines.tips)
     order, parent, stack = [], [], [(topo.top, -1, -1)]
     while stack:  # parents before children

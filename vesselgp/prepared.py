@@ -22,6 +22,7 @@ import numpy as np
 from . import tolerances as tol
 from ._validate import as_mesh
 from .errors import EndsError, InvalidMeshError
+from .centerlines import VoronoiDiagram
 from .inside import SurfaceWinding
 from .mesh import MeshTopology, mesh_topology
 from .mesh.ends import found_ends
@@ -130,6 +131,12 @@ class PreparedMesh:
     def winding(self):
         """SurfaceWinding: the closed surface every axis of this mesh is checked against (built once)."""
         return SurfaceWinding(self.V, self.F, self.topology.boundary_loops)
+
+    @cached_property
+    def voronoi(self):
+        """VoronoiDiagram: the inside Voronoi diagram every set of centre lines of this mesh is drawn on (built
+        once; :func:`vesselgp.centerlines.centerlines`)."""
+        return VoronoiDiagram(self.V, self.checked.faces, self.topology.boundary_loops)
 
 
 def prepared_mesh(V, F=None, ends=None):

@@ -71,7 +71,7 @@ from .rotations import (
 
 from .synthetic_scans import ScanPair, twist_pair  # noqa: E402
 from .synthetic_tree import (THREE_TIP_PARENTS, SyntheticTree, TreeBranch, TreeEnd, TreePath, TreeTruth,  # noqa: E402
-                             synthetic_tree, tree_parents)
+                             synthetic_arterial_tree, synthetic_tree, tree_parents)
 
 __all__ = [
     "named_curve",
@@ -85,6 +85,7 @@ __all__ = [
     "signed_volume",
     # vessel trees (vesselgp.synthetic_tree), re-exported here
     "synthetic_tree",
+    "synthetic_arterial_tree",
     # two scans with side branches and a known twist (vesselgp.synthetic_scans)
     "twist_pair",
     "ScanPair",

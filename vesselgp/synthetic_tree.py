@@ -51,6 +51,7 @@ True
 """
 from __future__ import annotations
 
+import heapq
 import logging
 import math
 from dataclasses import dataclass, replace
@@ -73,6 +74,7 @@ __all__ = [
     "TreeEnd",
     "TreePath",
     "TreeTruth",
+    "synthetic_arterial_tree",
     "synthetic_tree",
     "tree_parents",
 ]
@@ -1125,3 +1127,727 @@ def _voxel_for(branches, target_vertices):
         raise OptionError(f"target_vertices must be at least 500, got {n}")
     area = sum(math.pi * (b.radius_start + b.radius_end) * b.length for b in branches)
     return math.sqrt(tol.TREE_MC_VERTEX_DENSITY * area / n)
+
+
+# ---------------------------------------------------------------------------
+# Large arterial trees (issue #47): many tips, laid out without collisions,
+# meshed on a narrow band of grid blocks
+# ---------------------------------------------------------------------------
+
+#: Leaf start radius / tip radius: the taper along a terminal branch.
+_ART_LEAF_TAPER = 1.25
+#: Lengths of a vessel between junctions and of a leaf, as factors of ``spacing`` and ``leaf_length`` (uniform).
+_ART_LENGTH_SPREAD = (0.6, 1.4)
+#: The root (an internal carotid) is this many times longer than the other vessels that branch, and bends less.
+_ART_ROOT_LENGTH = 2.0
+_ART_ROOT_BEND_DEG = 20.0
+#: Largest angle between a vessel's start and end tangents, degrees (doubled by the last round of candidates).
+_ART_BEND_DEG = 35.0
+#: Angle between the two children at a junction, degrees (uniform); the wider child turns less.
+_ART_SPLIT_DEG = (60.0, 100.0)
+#: Share of a vessel's tips that its side branch takes (uniform; at least one, at most half).
+_ART_SIDE_SHARE = (0.08, 0.45)
+#: Spacing of the layout's centre-line samples (mm).
+_ART_LAYOUT_STEP = 0.4
+#: Added to the gaps the layout requires (mm): samples a step apart on tubes a millimetre apart find
+#: their gap a few hundredths of a millimetre too wide.
+_ART_GAP_MARGIN = 0.1
+#: Every vessel but the root's first stretch keeps this far above the root plane z = 0 (mm, plus its radius).
+_ART_FLOOR = 3.0
+#: Candidate placements of a junction's two children: rounds of this many, each with shorter children,
+#: wider angles and less free space required than the last.
+_ART_CANDIDATES = 48
+_ART_ROUNDS = 6
+_ART_SHRINK = 0.8
+#: Valid candidates compared per junction: the one farthest from the other vessels is kept.
+_ART_CHOICES = 8
+#: Gaps beyond this many ``min_gap`` count the same when comparing candidates.
+_ART_GAP_CAP = 4.0
+#: Free space required about the end of a vessel that branches again, in ``spacing`` (relaxed by rounds).
+_ART_ROOM = 0.5
+#: Largest curvature x (radius + 1.5 tip radii + blend) of a laid-out centre line (TREE_MAX_KAPPA_R holds
+#: with a margin at any voxel down to the thinnest tube over ``min_radius_voxels``).
+_ART_MAX_KAPPA_R = 0.5
+#: Grid points per block edge of the narrow-band marching cubes (at most 31: indices within a block are int16).
+_ART_BLOCK = 16
+#: Extra Newton steps onto the exact surface for the vertices not yet on it (at junctions).
+_ART_EXTRA_STEPS = 8
+#: A vertex is on the exact surface when its function is below this times the voxel.
+_ART_ON_SURFACE = 1e-12
+#: The most tips :func:`synthetic_arterial_tree` lays out.
+_ART_MAX_TIPS = 1024
+
+
+def synthetic_arterial_tree(n_tips=79, *, root_radius=1.8, tip_radius=0.35, spacing=12.0, leaf_length=55.0,
+                            min_gap=1.0, voxel=0.25, target_vertices=None, blend=None, seed=0,
+                            min_radius_voxels=1.2):
+    """A large arterial tree, made the way segmentations of whole arterial trees look.
+
+    A root (cut open by the plane z = 0, leaving it along +z) feeds ``n_tips`` rounded tips through a
+    binary tree of tapered tubes about exact Bezier centre lines, as :func:`synthetic_tree` makes them;
+    unlike its full binary tree (which collides beyond a few levels), the branches grow through space
+    like arteries: at every junction the wider child carries on (a trunk) and the other leaves it,
+    mostly 60-100 degrees between them (a side branch, which branches again), directions spread over
+    all sides, long thin terminal branches. Each junction's two children are drawn at random, checked
+    against every vessel placed before them (a gap of ``min_gap`` away from their junction, the
+    mesher's clearance near it, above the root plane, with free space where they branch again) and
+    the candidate farthest from the other vessels is kept.
+
+    Radii: a vessel feeding ``n`` tips starts at ``R(n) = 1.25 tip_radius n^(1 / gamma)`` (``gamma`` such
+    that ``R(n_tips) = root_radius``: about Murray's 3 for the defaults) and tapers linearly to the
+    start radius of its wider child; a leaf tapers from ``1.25 tip_radius`` to ``tip_radius``. So
+    radii fall monotonically from the root to the tips along every path.
+
+    Meshing: the tree's function (:class:`TreeTruth`) is evaluated only on the grid points within a
+    band of the tubes (found per piece of centre line about as long as the tube is wide, exact foot
+    points by Newton steps; points deeper inside only need their sign), stored on the 16^3-point
+    blocks they touch; marching cubes runs block by block and the blocks' vertices are merged by the
+    grid edge they lie on, so the mesh is the one marching cubes gives on the whole grid, without
+    the grid. Every vertex is projected onto the exact surface as in :func:`synthetic_tree`.
+
+    Parameters
+    ----------
+    n_tips : int
+        Rounded tips (the tree has ``n_tips + 1`` ends with the open root), 1 to 1024.
+    root_radius : float
+        Radius of the root at its open end (mm), above 1.25 ``tip_radius`` (or at least ``tip_radius``
+        for one tip).
+    tip_radius : float
+        Radius of every tip (mm).
+    spacing : float
+        Mean length of a vessel between two junctions (mm); the root is twice as long.
+    leaf_length : float
+        Mean length of a terminal branch (mm).
+    min_gap : float
+        Least gap between the walls of vessels that do not share a junction (mm).
+    voxel : float
+        Grid spacing (mm); ignored if ``target_vertices`` is given. The same ``seed`` gives the same tree
+        at every voxel: about 1, 2, 4, 8 times the vertices at ``voxel``, ``voxel / 2**0.5``,
+        ``voxel / 2``, ``voxel / 8**0.5``.
+    target_vertices : int, optional
+        Choose the voxel so the mesh has about this many vertices.
+    blend : float, optional
+        Width of the smooth union at the junctions (mm, default half ``tip_radius``; 0: a crease).
+    seed : int
+        Seeds the layout.
+    min_radius_voxels : float
+        The thinnest tube allowed, in voxels (1.2: a 0.35 mm tip needs a voxel up to 0.29 mm).
+
+    Returns
+    -------
+    SyntheticTree
+        ``truth.ends`` is the open root then one rounded end per leaf; ``truth.paths`` one root-to-tip
+        path per tip; every truth method of :func:`synthetic_tree` applies.
+
+    Raises
+    ------
+    OptionError
+        An option out of range, tubes thinner than ``min_radius_voxels`` or bending too sharply for the
+        voxel, or no room to lay the tips out without collisions (use another seed, shorter vessels or
+        fewer tips).
+    TreeDependencyError
+        scikit-image is missing (``pip install vesselgp[trees]``).
+    InvalidMeshError
+        The triangulation is not a clean tree surface (use a smaller voxel).
+
+    Examples
+    --------
+    >>> tree = synthetic_arterial_tree(4, root_radius=1.2, tip_radius=0.5, leaf_length=20, spacing=8, voxel=0.4)
+    >>> len(tree.truth.tips), len(tree.truth.branches), [e.kind for e in tree.truth.ends][:2]
+    (4, 7, ['open', 'rounded'])
+    """
+    _skimage_marching_cubes()  # fail before any work
+    p = _arterial_options(n_tips, root_radius=root_radius, tip_radius=tip_radius, spacing=spacing,
+                          leaf_length=leaf_length, min_gap=min_gap, voxel=voxel, blend=blend,
+                          min_radius_voxels=min_radius_voxels)
+    parents, control, radii = _ArterialLayout(p, np.random.default_rng(seed)).grow()
+    parents, children = _check_parents(parents)
+    level = np.zeros(len(parents), np.int64)
+    for b, par in enumerate(parents):
+        level[b] = 0 if par < 0 else level[par] + 1
+    branches = _branches(parents, control, radii, level)
+    ends, paths = _ends_and_paths(branches, children)
+    truth = TreeTruth(branches=branches, ends=ends, paths=paths, blend=p["blend"],
+                      root_plane=np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0]]))
+    h = p["voxel"] if target_vertices is None else _voxel_for(branches, target_vertices)
+    band = tol.TREE_BAND_VOXELS * h + truth.blend
+    _check_arterial_layout(branches, h, band, truth.blend, p["min_radius_voxels"])
+    origin, shape = _band_grid(branches, h, band)
+    V, F, cand = _band_marching_cubes(truth, origin, h, shape, band)
+    V = _project_candidates(truth, V, cand, V[:, 2] == 0.0, h)
+    V, F, loop = _finish(V, F, truth)
+    log.debug("synthetic_arterial_tree: %d tips, %d branches, voxel %.3g, grid %s, %d vertices",
+              len(ends) - 1, len(branches), h, shape, len(V))
+    return SyntheticTree(V=V, F=F, truth=truth, root_loop=loop, voxel=h, staircase=False, seed=int(seed))
+
+
+def _arterial_options(n_tips, **p):
+    """The validated options of :func:`synthetic_arterial_tree` (raise :class:`OptionError`)."""
+    if isinstance(n_tips, bool) or not isinstance(n_tips, (int, np.integer)) or not 1 <= n_tips <= _ART_MAX_TIPS:
+        raise OptionError(f"n_tips must be an integer from 1 to {_ART_MAX_TIPS}, got {n_tips!r}")
+    if p["blend"] is None:
+        p["blend"] = 0.5 * p["tip_radius"] if isinstance(p["tip_radius"], (int, float, np.number)) else None
+    try:
+        p = {k: float(v) for k, v in p.items()}
+    except (TypeError, ValueError):
+        raise OptionError("the tree's sizes must be numbers") from None
+    if not all(np.isfinite(v) for v in p.values()):
+        raise OptionError(f"the tree's sizes must be finite, got {p}")
+    for k in ("root_radius", "tip_radius", "spacing", "leaf_length", "min_gap", "voxel", "min_radius_voxels"):
+        if not p[k] > 0:
+            raise OptionError(f"{k} must be positive, got {p[k]}")
+    least = _ART_LEAF_TAPER * p["tip_radius"] if n_tips > 1 else p["tip_radius"]
+    if not (p["root_radius"] > least or (n_tips == 1 and p["root_radius"] >= least)):
+        raise OptionError(f"root_radius must be above {least:.4g} ({_ART_LEAF_TAPER:g} tip radii: the leaves "
+                          f"start there) for {n_tips} tips, got {p['root_radius']}")
+    if not 0 <= p["blend"] <= p["tip_radius"]:
+        raise OptionError(f"blend must be from 0 to tip_radius ({p['tip_radius']}), got {p['blend']}")
+    return {"n_tips": int(n_tips), **p}
+
+
+def _cross(a, b):
+    """Cross products of (..., 3) arrays (numpy's cross is slow on the layout's many small ones)."""
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1], a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
+def _turn(v, axis, angle):
+    """``v`` (3,) turned about the unit ``axis`` by ``angle`` (Rodrigues)."""
+    c, s = math.cos(angle), math.sin(angle)
+    return v * c + _cross(axis, v) * s + axis * (axis @ v) * (1 - c)
+
+
+def _arterial_bezier(P0, d0, d1, length, rng):
+    """Control points (4, 3) of a non-planar cubic from ``P0`` leaving along ``d0`` and arriving along ``d1``,
+    about ``length`` long (the construction of :func:`_bezier` with a coarser length: the layout draws many)."""
+    n = _cross(d0, d1)
+    nn = float(np.linalg.norm(n))
+    n = perpendicular(d0) if nn < 1e-9 else n / nn
+    eps = tol.TREE_OUT_OF_PLANE * rng.choice([-1.0, 1.0]) * rng.uniform(0.5, 1.0)
+    chord = d0 + d1 + eps * n
+    chord /= np.linalg.norm(chord)
+    ctrl = np.array([np.zeros(3), d0 / 3.0, chord - d1 / 3.0, chord])
+    P = _eval(_coefficients(ctrl), np.linspace(0.0, 1.0, 65))
+    return P0 + ctrl * (length / float(np.sum(np.linalg.norm(np.diff(P, axis=0), axis=1))))
+
+
+class _ArterialLayout:
+    """The control points and radii of :func:`synthetic_arterial_tree`, grown one junction at a time.
+
+    Every placed vessel keeps samples of its centre line (``pts``), their radii, their branch and the
+    branch's end radius, in one k-d tree the candidates are checked against.
+    """
+
+    def __init__(self, p, rng):
+        self.p, self.rng = p, rng
+        r0 = _ART_LEAF_TAPER * p["tip_radius"]
+        n = p["n_tips"]
+        self.gamma = math.log(n) / math.log(p["root_radius"] / r0) if n > 1 else 1.0
+        self.parents, self.ctrl, self.radii, self.tips, self.split = [], [], [], [], []
+        self.pts, self.rad = np.zeros((0, 3)), np.zeros(0)
+        self.lab, self.rend = np.zeros(0, np.int64), np.zeros(0)
+        self.tree = None
+        self.bend = _ART_BEND_DEG
+
+    def R(self, n):
+        """Start radius of a vessel feeding ``n`` tips."""
+        return _ART_LEAF_TAPER * self.p["tip_radius"] * float(n) ** (1.0 / self.gamma)
+
+    def _split(self, n):
+        """Tips of the wider (continuing) and the side child of a vessel feeding ``n`` tips; None for a leaf."""
+        if n == 1:
+            return None
+        side = int(min(n // 2, max(1, round(n * self.rng.uniform(*_ART_SIDE_SHARE)))))
+        return n - side, side
+
+    def _radii(self, n, split):
+        return self.R(n), (self.p["tip_radius"] if split is None else self.R(split[0]))
+
+    def _length(self, n):
+        return (self.p["leaf_length"] if n == 1 else self.p["spacing"]) * self.rng.uniform(*_ART_LENGTH_SPREAD)
+
+    def _end_direction(self, d0):
+        across = _turn(perpendicular(d0), d0, self.rng.uniform(0, 2 * math.pi))
+        return _turn(d0, across, math.radians(self.rng.uniform(0, self.bend)))
+
+    def _samples(self, ctrl, radii, rj):
+        """Centre-line samples about ``_ART_LAYOUT_STEP`` apart and their radii; None if the curve bends too much.
+
+        Within a step of where the clearance checks start at either end (``TREE_JUNCTION_RADII`` times the
+        parent's end radius ``rj`` from the start, times the branch's own end radius from the end), the
+        samples are a tenth of a step apart: the gaps are closest there.
+        """
+        a = _coefficients(ctrl)
+        tq = np.linspace(0.0, 1.0, 65)
+        sq = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(_eval(a, tq), axis=0), axis=1))])
+        L = float(sq[-1])
+        s = [np.linspace(0.0, L, max(8, int(math.ceil(L / _ART_LAYOUT_STEP)) + 1))]
+        for c in (tol.TREE_JUNCTION_RADII * rj, L - tol.TREE_JUNCTION_RADII * radii[1]):
+            s.append(np.clip(c + _ART_LAYOUT_STEP * np.linspace(-1.5, 1.5, 31), 0.0, L))
+        t = np.interp(np.unique(np.concatenate(s)), sq, tq)
+        r = radii[0] + (radii[1] - radii[0]) * t
+        d1, d2 = _eval(a, t, 1), _eval(a, t, 2)
+        kappa = np.linalg.norm(_cross(d1, d2), axis=1) / np.linalg.norm(d1, axis=1) ** 3
+        if np.max(kappa * (r + 1.5 * self.p["tip_radius"] + self.p["blend"])) > _ART_MAX_KAPPA_R:
+            return None
+        return _eval(a, t), r
+
+    def _clearance(self, r_end, other_end):
+        """Gap required between vessels that share a junction (the mesher's), plus a margin for the sampling."""
+        return tol.TREE_CLEARANCE * np.minimum(r_end, other_end) + self.p["blend"] + _ART_GAP_MARGIN
+
+    def _gap(self, P, r, r_end, J, rj, parent):
+        """Smallest gap (capped) from the tube samples ``(P, r)`` to the vessels placed, and whether it is allowed.
+
+        The ``parent`` shares the junction ``J`` (its end radius ``rj``): samples of either within
+        ``TREE_JUNCTION_RADII * rj`` of it are left out, as :func:`_check_clearance` does, and their gap
+        needs only the mesher's clearance; every other vessel must keep ``min_gap`` away.
+        """
+        cap = _ART_GAP_CAP * self.p["min_gap"]
+        reach = float(r.max()) + float(self.rad.max()) + max(cap, float(self._clearance(r_end, self.rad.max())))
+        M = cKDTree(P).sparse_distance_matrix(self.tree, reach, output_type="ndarray")
+        if not len(M):
+            return cap, True
+        i, j = M["i"], M["j"]
+        g = M["v"] - r[i] - self.rad[j]
+        shared = self.lab[j] == parent
+        ex = tol.TREE_JUNCTION_RADII * rj
+        skip = shared & ((np.linalg.norm(P[i] - J, axis=1) <= ex) | (np.linalg.norm(self.pts[j] - J, axis=1) <= ex))
+        g, shared, j = g[~skip], shared[~skip], j[~skip]
+        need = self._clearance(r_end, self.rend[j])
+        need = np.where(shared, need, np.maximum(need, self.p["min_gap"]))
+        other = g[~shared]
+        return (min(cap, float(other.min())) if len(other) else cap), not np.any(g < need)
+
+    def _pair_gap(self, P, r, rp, Q, q, rq, J, rj):
+        """Whether two siblings leaving ``J`` keep the mesher's clearance away from it."""
+        ex = tol.TREE_JUNCTION_RADII * rj
+        kp, kq = np.linalg.norm(P - J, axis=1) > ex, np.linalg.norm(Q - J, axis=1) > ex
+        if not kp.any() or not kq.any():
+            return True
+        d, i = cKDTree(Q[kq]).query(P[kp])
+        return not np.any(d - r[kp] - q[kq][i] < self._clearance(rp, rq))
+
+    def _above_floor(self, P, r, root=False):
+        low = P[:, 2] - r
+        if root:
+            s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
+            low = low[s > 2 * r[0] + _ART_FLOOR]
+        return bool(np.all(low >= _ART_FLOOR))
+
+    def _room(self, ctrl, relax):
+        """A vessel that branches again ends where its children have room above the root plane."""
+        E, T = ctrl[3], _unit(ctrl[3] - ctrl[2])
+        ahead = 0.5 * self.p["leaf_length"] * (1 - relax)
+        return E[2] + ahead * min(T[2], 0.0) >= _ART_FLOOR + 0.5 * ahead
+
+    def _free(self, E):
+        """Distance from ``E`` to the nearest wall placed."""
+        d, j = self.tree.query(E, k=min(16, len(self.pts)))
+        return float(np.min(np.atleast_1d(d) - self.rad[np.atleast_1d(j)]))
+
+    def _add(self, parent, ctrl, radii, n, split, P, r):
+        b = len(self.parents)
+        self.parents.append(parent)
+        self.ctrl.append(ctrl)
+        self.radii.append(radii)
+        self.tips.append(n)
+        self.split.append(split)
+        self.pts = np.vstack([self.pts, P])
+        self.rad = np.concatenate([self.rad, r])
+        self.lab = np.concatenate([self.lab, np.full(len(P), b)])
+        self.rend = np.concatenate([self.rend, np.full(len(P), radii[1])])
+        self.tree = cKDTree(self.pts)
+        return b
+
+    def grow(self):
+        """Parents (tuple), control points (b, 4, 3) and radii (b, 2): the root, then junction by junction,
+        the vessels feeding the most tips first."""
+        n = self.p["n_tips"]
+        split = self._split(n)
+        radii = (self.p["root_radius"], self.p["tip_radius"]) if n == 1 else self._radii(n, split)
+        d0 = np.array([0.0, 0.0, 1.0])
+        self.bend = _ART_ROOT_BEND_DEG
+        for _ in range(_ART_CANDIDATES * _ART_ROUNDS):
+            length = self._length(n) * (1.0 if n == 1 else _ART_ROOT_LENGTH)
+            ctrl = _arterial_bezier(np.zeros(3), d0, self._end_direction(d0), length, self.rng)
+            S = self._samples(ctrl, radii, radii[0])
+            if S is not None and self._above_floor(*S, root=True) and (n == 1 or self._room(ctrl, 0.0)):
+                break
+        else:
+            raise OptionError("the root cannot rise clear of the root plane; use another seed or a longer spacing")
+        self._add(-1, ctrl, radii, n, split, *S)
+        heap = [(-n, 0)] if split else []
+        while heap:
+            _, b = heapq.heappop(heap)
+            for c in self._junction(b):
+                if self.split[c]:
+                    heapq.heappush(heap, (-self.tips[c], c))
+        return tuple(self.parents), np.array(self.ctrl), np.array(self.radii)
+
+    def _junction(self, b):
+        """Place both children of branch ``b``: the wider one carries on, the other is the side branch."""
+        J = self.ctrl[b][3]
+        T = _unit(self.ctrl[b][3] - self.ctrl[b][2])
+        rj = self.radii[b][1]
+        kids = []
+        for n in self.split[b]:
+            sp = self._split(n)
+            kids.append((n, sp, self._radii(n, sp)))
+        (nc, spc, rc), (ns, sps, rs) = kids
+        wc = rs[0] ** 2 / (rs[0] ** 2 + rc[0] ** 2)  # share of the angle between them that the wider child turns
+        u0 = perpendicular(T)
+        valid = []
+        for rnd in range(_ART_ROUNDS):
+            shrink = _ART_SHRINK ** rnd
+            relax = rnd / (_ART_ROUNDS - 1)
+            self.bend = _ART_BEND_DEG * (1 + relax)
+            lo, hi = _ART_SPLIT_DEG
+            hi += (180.0 - hi) * 0.5 * relax
+            room = _ART_ROOM * self.p["spacing"] * (1 - relax)
+            for _ in range(_ART_CANDIDATES):
+                u = _turn(u0, T, self.rng.uniform(0, 2 * math.pi))
+                delta = math.radians(self.rng.uniform(lo, hi))
+                dc = math.cos(delta * wc) * T - math.sin(delta * wc) * u
+                ds = math.cos(delta * (1 - wc)) * T + math.sin(delta * (1 - wc)) * u
+                cc = _arterial_bezier(J, dc, self._end_direction(dc), self._length(nc) * shrink, self.rng)
+                cs = _arterial_bezier(J, ds, self._end_direction(ds), self._length(ns) * shrink, self.rng)
+                if (spc and not self._room(cc, relax)) or (sps and not self._room(cs, relax)):
+                    continue
+                Sc, Ss = self._samples(cc, rc, rj), self._samples(cs, rs, rj)
+                if Sc is None or Ss is None or not (self._above_floor(*Sc) and self._above_floor(*Ss)):
+                    continue
+                if not self._pair_gap(*Sc, rc[1], *Ss, rs[1], J, rj):
+                    continue
+                gc, ok = self._gap(*Sc, rc[1], J, rj, b)
+                if not ok:
+                    continue
+                gs, ok = self._gap(*Ss, rs[1], J, rj, b)
+                if not ok:
+                    continue
+                free = [self._free(c[3]) for c, sp in ((cc, spc), (cs, sps)) if sp]
+                if free and min(free) < room:
+                    continue
+                score = min(gc, gs) + (min(min(free), room) / room if free and room > 0 else 0.0)
+                valid.append((score, len(valid), cc, cs, Sc, Ss))
+                if len(valid) >= _ART_CHOICES:
+                    break
+            if valid:
+                break
+        if not valid:
+            raise OptionError(f"no room for the {nc + ns} tips beyond branch {b} without colliding tubes; "
+                              "use another seed, a shorter leaf_length or spacing, a smaller min_gap or fewer tips")
+        _, _, cc, cs, Sc, Ss = max(valid, key=lambda v: v[:2])
+        return self._add(b, cc, rc, nc, spc, *Sc), self._add(b, cs, rs, ns, sps, *Ss)
+
+
+def _check_arterial_layout(branches, voxel, band, blend, min_radius_voxels):
+    """:func:`_check_layout`'s checks (thinnest tube, bends, root plane, clearance), the clearance only between
+    branches whose boxes come near each other (the pairs of a large tree are too many to check all)."""
+    rmin = min(float(b.radii.min()) for b in branches)
+    if rmin < min_radius_voxels * voxel:
+        raise OptionError(f"the thinnest tube (radius {rmin:.3g}) is under {min_radius_voxels:g} voxels; "
+                          f"use a voxel below {rmin / min_radius_voxels:.3g} or a larger tip_radius")
+    for k, b in enumerate(branches):
+        d1, d2 = _eval(b._a, b.t, 1), _eval(b._a, b.t, 2)
+        kappa = np.linalg.norm(np.cross(d1, d2), axis=1) / np.linalg.norm(d1, axis=1) ** 3
+        if np.max(kappa * (b.radii + band)) > tol.TREE_MAX_KAPPA_R:
+            raise OptionError(f"branch {k} bends too sharply for its radius at voxel {voxel:.3g}; use a smaller voxel")
+        low = b.centers[:, 2] - b.radii
+        if k == 0:
+            low = low[b.s > 2 * b.radius_start + tol.TREE_ROOT_PLANE_MARGIN * voxel]
+        if np.any(low < tol.TREE_ROOT_PLANE_MARGIN * voxel):
+            raise OptionError(f"branch {k} reaches below the root plane z = 0; use a smaller voxel or another seed")
+    rmax = max(float(b.radii.max()) for b in branches)
+    pad = np.array([float(b.radii.max()) for b in branches]) + 0.5 * (tol.TREE_CLEARANCE * rmax + blend)
+    lo = np.array([b.centers.min(axis=0) for b in branches]) - pad[:, None]
+    hi = np.array([b.centers.max(axis=0) for b in branches]) + pad[:, None]
+    near = np.all((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None]), axis=2)
+    for i, j in zip(*np.nonzero(np.tril(near, -1))):
+        try:
+            _check_clearance(branches, int(i), int(j), blend)
+        except OptionError:
+            raise OptionError(f"branches {i} and {j} collide; use another seed or a larger min_gap") from None
+
+
+def _band_grid(branches, h, band):
+    """Origin and shape of the grid over every tube plus the band; its first z layer is the root plane."""
+    lo = np.min([np.min(b.centers - b.radii[:, None], axis=0) for b in branches], axis=0) - band - 2 * h
+    hi = np.max([np.max(b.centers + b.radii[:, None], axis=0) for b in branches], axis=0) + band + 2 * h
+    origin = np.floor(lo / h) * h
+    origin[2] = 0.0
+    return origin, tuple(int(k) for k in np.ceil((hi - origin) / h).astype(np.int64) + 1)
+
+
+def _segment_distance(X, A, B):
+    """Distance of each point of ``X`` (m, 3) to the segment from ``A`` to ``B``; (m,) float64."""
+    AB = B - A
+    L2 = float(AB @ AB)
+    u = np.clip(((X - A) @ AB) / L2, 0.0, 1.0) if L2 > 0 else np.zeros(len(X))
+    return np.linalg.norm(X - A - u[:, None] * AB, axis=1)
+
+
+def _branch_band(br, origin, h, shape, band):
+    """The grid points near a branch and its function there.
+
+    The centre line is cut into pieces about 1.5 (radius + band) long. A grid point farther from a
+    piece's chord than its largest radius + band + the piece's distance from its chord is farther than
+    ``band`` from that piece's tube; one nearer than the branch's smallest radius - band - that distance
+    is deeper inside than ``band`` (the function is ``-band`` there, clipped); the others get the exact
+    function (:meth:`TreeBranch._band_field`).
+
+    Returns
+    -------
+    lin : (m,) int64
+        Linear grid indices (unique) of the points within ``band`` of the tube or inside it.
+    f : (m,) float32
+        The branch function clipped to [-band, band].
+    """
+    ts = np.linspace(0.0, 1.0, tol.TREE_SEED_SAMPLES)
+    P, R = br.point(ts), br.radius(ts)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
+    rmin = float(R.min())
+    lins, deeps = [], []
+    k, last = 0, len(ts) - 1
+    while k < last:
+        e = min(max(int(np.searchsorted(s, s[k] + max(1.5 * (R[k] + band), 4 * h))), k + 1), last)
+        A, B = P[k], P[e]
+        sigma = float(_segment_distance(P[k:e + 1], A, B).max()) + 1e-6 * h
+        reach = float(R[k:e + 1].max()) + band + sigma
+        i0 = np.maximum(np.ceil((np.minimum(A, B) - reach - origin) / h), 0).astype(np.int64)
+        i1 = np.minimum(np.floor((np.maximum(A, B) + reach - origin) / h), np.array(shape) - 1).astype(np.int64)
+        k = e
+        if np.any(i1 < i0):
+            continue
+        g = np.mgrid[i0[0]:i1[0] + 1, i0[1]:i1[1] + 1, i0[2]:i1[2] + 1].reshape(3, -1)
+        d = _segment_distance(origin + h * g.T, A, B)
+        keep = d <= reach
+        lins.append(np.ravel_multi_index(g[:, keep], shape))
+        deeps.append(d[keep] + sigma < rmin - band)
+    if not lins:
+        return np.zeros(0, np.int64), np.zeros(0, np.float32)
+    lin, deep = np.concatenate(lins), np.concatenate(deeps)
+    order = np.lexsort((~deep, lin))  # each point once, deep if any piece finds it deep
+    lin, deep = lin[order], deep[order]
+    first = np.ones(len(lin), bool)
+    first[1:] = lin[1:] != lin[:-1]
+    lin, deep = lin[first], deep[first]
+    f = np.full(len(lin), -band, dtype=np.float32)
+    X = origin + h * np.stack(np.unravel_index(lin[~deep], shape), axis=1)
+    f[~deep] = br._band_field(X, band)
+    return lin, f
+
+
+class _BandBlocks:
+    """The two smallest branch functions and their branches on the grid blocks the band touches.
+
+    Blocks are ``B^3`` grid points; an untouched point is outside every tube by more than the band
+    (``f = band``, no branch).
+    """
+
+    def __init__(self, shape, B, band):
+        self.shape, self.B, self.band = tuple(shape), B, band
+        self.cshape = tuple(int(math.ceil(n / B)) for n in shape)
+        self.few = int(np.prod(self.cshape, dtype=np.int64)) < 2**31  # block keys fit 32 bits
+
+    def locate(self, lin):
+        """Block key and index within the block of each grid point."""
+        ijk = np.stack(np.unravel_index(lin, self.shape))
+        return (np.ravel_multi_index(ijk // self.B, self.cshape).astype(np.int32 if self.few else np.int64),
+                np.ravel_multi_index(ijk % self.B, (self.B,) * 3).astype(np.int16))
+
+    def allocate(self, keys):
+        self.keys = np.unique(keys)
+        size = (len(self.keys), self.B ** 3)
+        self.f1, self.f2 = np.full(size, self.band, np.float32), np.full(size, self.band, np.float32)
+        self.b1, self.b2 = np.full(size, -1, np.int16), np.full(size, -1, np.int16)
+
+    def add(self, k, key, loc, fb):
+        """Merge branch ``k``'s function ``fb`` at (unique) points ``(key, loc)`` into the two smallest."""
+        slot = np.searchsorted(self.keys, key)
+        a, b, ia, ib = self.f1[slot, loc], self.f2[slot, loc], self.b1[slot, loc], self.b2[slot, loc]
+        first = fb < a
+        second = ~first & (fb < b)
+        self.f2[slot, loc] = np.where(first, a, np.where(second, fb, b))
+        self.b2[slot, loc] = np.where(first, ia, np.where(second, k, ib))
+        self.f1[slot, loc] = np.where(first, fb, a)
+        self.b1[slot, loc] = np.where(first, k, ia)
+
+    def patch(self, c):
+        """The function and the two branches on the (B + 1)^3 points of block ``c`` (3,): its own and the
+        first layers of its upper neighbours, so that its cubes are whole."""
+        B = self.B
+        f = np.full((B + 1,) * 3, self.band, np.float32)
+        ids = np.full((2,) + (B + 1,) * 3, -1, np.int16)
+        for o in np.ndindex(2, 2, 2):
+            n = tuple(int(a + b) for a, b in zip(c, o))
+            if any(a >= m for a, m in zip(n, self.cshape)):
+                continue
+            key = np.ravel_multi_index(n, self.cshape)
+            s = int(np.searchsorted(self.keys, key))
+            if s == len(self.keys) or self.keys[s] != key:
+                continue
+            dst = tuple(slice(B, B + 1) if a else slice(0, B) for a in o)
+            src = tuple(slice(0, 1) if a else slice(0, B) for a in o)
+            f[dst] = self.f1[s].reshape(B, B, B)[src]
+            ids[(0,) + dst] = self.b1[s].reshape(B, B, B)[src]
+            ids[(1,) + dst] = self.b2[s].reshape(B, B, B)[src]
+        return f, ids
+
+
+def _band_marching_cubes(truth, origin, h, shape, band):
+    """Marching cubes of the tree's function on the band, block by block, merged at the grid edges.
+
+    A cube belongs to the block of its lowest corner, so every cube is triangulated once, from the
+    same values as on a whole grid; a vertex on a grid edge two blocks share is found by both and
+    merged by the edge's index.
+
+    Returns
+    -------
+    V : (n, 3) float64
+        Vertices (mm), before projection.
+    F : (m, 3) int64
+        Outward triangles.
+    cand : (n, 4) int16
+        The two branches of smallest function at both ends of each vertex's grid edge (-1: none).
+    """
+    marching_cubes = _skimage_marching_cubes()
+    B = _ART_BLOCK
+    blocks = _BandBlocks(shape, B, band)
+    per = []
+    for br in truth.branches:
+        lin, f = _branch_band(br, origin, h, shape, band)
+        per.append((*blocks.locate(lin), f))
+    blocks.allocate(np.concatenate([p[0] for p in per]))
+    for k, (key, loc, f) in enumerate(per):
+        blocks.add(k, key, loc, f)
+    del per
+    if truth.blend > 0:
+        m = blocks.f1 < band
+        blocks.f1[m] = _smin(blocks.f1[m].astype(np.float64), blocks.f2[m].astype(np.float64), truth.blend)[0]
+    snap = np.float32(tol.TREE_MC_SNAP * h)  # as in _surface: no crossing next to a grid point
+    near = np.abs(blocks.f1) < snap
+    blocks.f1[near] = np.where(blocks.f1[near] < 0, -snap, snap)
+    # blocks whose cubes reach a block with points inside: those blocks and their lower neighbours
+    C = np.stack(np.unravel_index(blocks.keys[np.any(blocks.f1 < 0, axis=1)], blocks.cshape), axis=1)
+    run = np.unique(np.concatenate([C - np.array(o) for o in np.ndindex(2, 2, 2)]), axis=0)
+    run = run[np.all(run >= 0, axis=1)]
+    keys, verts, faces, cands = [], [], [], []
+    nv = 0
+    for c in run:
+        f, ids = blocks.patch(c)
+        if not f.min() < 0 < f.max():  # no crossing: outside every tube, or deep inside a wide one
+            continue
+        V, F, _, _ = marching_cubes(f, level=0.0, gradient_direction="ascent", allow_degenerate=False)
+        lower = np.floor(V).astype(np.int64)
+        axis = np.argmax(V - lower, axis=1)  # the one coordinate off the lattice
+        upper = lower.copy()
+        upper[np.arange(len(V)), axis] += 1
+        cands.append(np.concatenate([ids[:, lower[:, 0], lower[:, 1], lower[:, 2]].T,
+                                     ids[:, upper[:, 0], upper[:, 1], upper[:, 2]].T], axis=1))
+        keys.append(np.ravel_multi_index((lower + c * B).T, shape) * 3 + axis)
+        verts.append(V.astype(np.float64) + c * B)
+        faces.append(F + nv)
+        nv += len(V)
+    if not keys:
+        raise InvalidMeshError("the tree left no surface on its grid; use a smaller voxel")
+    _, first, inv = np.unique(np.concatenate(keys), return_index=True, return_inverse=True)
+    V = origin + h * np.concatenate(verts)[first]
+    return V, inv.reshape(-1)[np.concatenate(faces)], np.concatenate(cands)[first]
+
+
+def _project_candidates(truth, X, cand, fixed_z, h):
+    """Newton steps onto the exact zero set, as :func:`_project`, with each vertex's union formed from the two
+    smallest functions among its candidate branches (not all); vertices not yet on the surface after
+    ``TREE_PROJECTION_STEPS`` (at junctions) get up to ``_ART_EXTRA_STEPS`` more."""
+    nb, n = len(truth.branches), len(X)
+    rows = np.repeat(np.arange(n), cand.shape[1])
+    br = cand.reshape(-1).astype(np.int64)
+    key = np.unique(rows[br >= 0] * nb + br[br >= 0])
+    rows, br = key // nb, key % nb
+    f, t = np.empty(len(key)), np.empty(len(key))
+    for k, sel in _by_branch(br, np.arange(len(br)), nb):
+        t[sel], d = truth.branches[k].foot(X[rows[sel]])
+        f[sel] = d - truth.branches[k].radius(t[sel])
+    o = np.lexsort((f, rows))
+    rows, br, t = rows[o], br[o], t[o]
+    start = np.searchsorted(rows, np.arange(n))
+    two = np.diff(np.append(start, len(rows))) > 1
+    pair, T = np.full((2, n), -1, np.int64), np.zeros((2, n))
+    pair[0], T[0] = br[start], t[start]
+    pair[1, two], T[1, two] = br[start[two] + 1], t[start[two] + 1]
+    X = X.copy()
+    for _ in range(tol.TREE_PROJECTION_STEPS):
+        vals = []
+        for j in range(2):
+            fj, gj = np.full(n, np.inf), np.zeros((n, 3))
+            for k, sel in _by_branch(pair[j], np.arange(n), nb):
+                fj[sel], gj[sel], T[j, sel] = truth.branches[k]._field_t(X[sel], T[j, sel], True)
+            vals.append((fj, gj))
+        fu, gu = _union(vals, truth.blend, True)
+        X -= (fu / np.maximum(np.einsum("ij,ij->i", gu, gu), 1e-12))[:, None] * gu
+        X[fixed_z, 2] = 0.0
+    return _settle_junctions(truth, X, cand, fixed_z, h)
+
+
+def _settle_junctions(truth, X, cand, fixed_z, h):
+    """More Newton steps for the vertices beside a junction, the union re-formed at every step from the two
+    smallest functions among their candidates and the branches meeting at the two nearest junctions (a third
+    branch's function can come between the first two there; elsewhere the tubes keep apart by more than the
+    blend, so the two candidates are the exact union's)."""
+    nb = len(truth.branches)
+    J = [(k, br.control[3]) for k, br in enumerate(truth.branches) if any(c.parent == k for c in truth.branches)]
+    if not J:
+        return X
+    meets = {k: [k] + [c for c, br in enumerate(truth.branches) if br.parent == k] for k, _ in J}
+    owner = np.array([k for k, _ in J])
+    reach = np.array([(tol.TREE_JUNCTION_RADII + 1) * truth.branches[k].radius_end for k, _ in J])
+    d, i = cKDTree(np.array([P for _, P in J])).query(X, k=min(2, len(J)))
+    d, i = d.reshape(len(X), -1), i.reshape(len(X), -1)
+    beside = np.any(d < reach[i] + truth.blend, axis=1)
+    active = np.flatnonzero(beside)
+    rows, brs = [], []
+    for c in range(cand.shape[1]):
+        rows.append(active)
+        brs.append(cand[active, c].astype(np.int64))
+    for c in range(i.shape[1]):
+        near = d[active, c] < reach[i[active, c]] + truth.blend
+        for k in np.unique(owner[i[active[near], c]]):
+            v = active[near][owner[i[active[near], c]] == k]
+            for b in meets[k]:
+                rows.append(v)
+                brs.append(np.full(len(v), b, np.int64))
+    rows, brs = np.concatenate(rows), np.concatenate(brs)
+    key = np.unique(rows[brs >= 0] * nb + brs[brs >= 0])
+    rows, brs = key // nb, key % nb
+    t = np.empty(len(key))
+    for k, sel in _by_branch(brs, np.arange(len(brs)), nb):
+        t[sel] = truth.branches[k].foot(X[rows[sel]])[0]
+    X = X.copy()
+    for _ in range(_ART_EXTRA_STEPS):
+        f, g = np.empty(len(rows)), np.empty((len(rows), 3))
+        for k, sel in _by_branch(brs, np.arange(len(brs)), nb):
+            f[sel], g[sel], t[sel] = truth.branches[k]._field_t(X[rows[sel]], t[sel], True)
+        o = np.lexsort((f, rows))
+        r_o = rows[o]
+        v, start = np.unique(r_o, return_index=True)
+        two = np.diff(np.append(start, len(r_o))) > 1
+        second = np.where(two, start + 1, start)
+        f1, f2 = f[o[start]], np.where(two, f[o[second]], np.inf)
+        fu, gu = _union([(f1, g[o[start]]), (f2, np.where(two[:, None], g[o[second]], 0.0))], truth.blend, True)
+        off = np.abs(fu) > _ART_ON_SURFACE * h
+        if not off.any():
+            break
+        v, fu, gu = v[off], fu[off], gu[off]
+        X[v] -= (fu / np.maximum(np.einsum("ij,ij->i", gu, gu), 1e-12))[:, None] * gu
+        X[v[fixed_z[v]], 2] = 0.0
+        keep = np.isin(rows, v)
+        rows, brs, t = rows[keep], brs[keep], t[keep]
+    return X
+
+
+def _by_branch(branch, items, nb):
+    """``(k, items of branch k)`` for every branch ``k`` in ``branch`` (-1 left out)."""
+    o = np.argsort(branch, kind="stable")
+    bounds = np.searchsorted(branch[o], np.arange(nb + 1))
+    return [(k, items[o[bounds[k]:bounds[k + 1]]]) for k in range(nb) if bounds[k + 1] > bounds[k]]

@@ -513,7 +513,7 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
         return _one_path(pm, root, fit_generalized_cylinder(pm, ends=(root, 1 - root), lam=lam, mu=mu,
                                                            max_iter=max_iter, geodesics=geodesics))
     area = pm.areas
-    br = decomposed(V, Fg, ends, root, loops=topo.boundary_loops)
+    br = decomposed(V, Fg, ends, root, voronoi=pm.voronoi)
     caps, leaf_tip, problems, ids = _branch_problems(V, area, ends, root, br)
     # the branches' fixed points in lock step (one vectorised pass per iteration over all of them)
     fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit",
@@ -610,7 +610,7 @@ def _with_missed_caps(pm, root):
     """
     if not pm.flat_patches:
         return pm
-    lines = centerlines(pm.V, pm.checked.faces, pm.ends, root_end(pm.ends, root), loops=pm.topology.boundary_loops)
+    lines = centerlines(pm.V, pm.checked.faces, pm.ends, root_end(pm.ends, root), voronoi=pm.voronoi)
     C, R = np.vstack(lines.points), (1.0 + tol.CHECK_COVER_TOLERANCE) * np.concatenate(lines.radius)
     missed = [p.end for p in pm.flat_patches if not within_balls(p.end.center[None], C, R)[0]]
     if not missed:
