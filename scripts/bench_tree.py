@@ -208,7 +208,7 @@ def _fit_row(label, V, F, truth, vmtk_python, repeat):
 #: VMTK is stopped after this long on one growth-table tree (it did not finish a 321k-vertex tree in 25 min) ...
 VMTK_TIMEOUT_S = 600
 #: ... and runs only on the trees up to this size (its branch splitting took 147 s on the 27k-vertex tree).
-VMTK_GROWTH_MAX_VERTICES = 60_000
+VMTK_GROWTH_MAX_VERTICES = 30_000
 
 
 def growth(vertex_scales=(1, 2, 4, 8), tips=(4, 16, 64, 128), repeat=1, vmtk_python=None, base=27_000):
