@@ -681,6 +681,27 @@ def _ends_and_paths(branches, children):
     return tuple(ends), tuple(paths)
 
 
+def _check_tubes(branches, voxel, band, least, *, thin, bend, plane, at_voxel=False):
+    """Raise :class:`OptionError` where a tube is thinner than ``least`` voxels, bends tighter than
+    ``tolerances.TREE_MAX_KAPPA_R`` over its radius and the band, or reaches below the root plane; ``thin``,
+    ``bend`` and ``plane`` name the remedy each message suggests."""
+    rmin = min(float(b.radii.min()) for b in branches)
+    if rmin < least * voxel:
+        raise OptionError(f"the thinnest tube (radius {rmin:.3g}) is under {least:g} voxels; "
+                          f"use a voxel below {rmin / least:.3g} or {thin}")
+    for k, b in enumerate(branches):
+        d1, d2 = _eval(b._a, b.t, 1), _eval(b._a, b.t, 2)
+        kappa = np.linalg.norm(np.cross(d1, d2), axis=1) / np.linalg.norm(d1, axis=1) ** 3
+        if np.max(kappa * (b.radii + band)) > tol.TREE_MAX_KAPPA_R:
+            where = f" at voxel {voxel:.3g}" if at_voxel else ""
+            raise OptionError(f"branch {k} bends too sharply for its radius{where}; use {bend}")
+        low = b.centers[:, 2] - b.radii
+        if k == 0:
+            low = low[b.s > 2 * b.radius_start + tol.TREE_ROOT_PLANE_MARGIN * voxel]
+        if np.any(low < tol.TREE_ROOT_PLANE_MARGIN * voxel):
+            raise OptionError(f"branch {k} reaches below the root plane z = 0; use {plane}")
+
+
 def _check_layout(branches, voxel, band, blend, min_radius_voxels=None):
     """Raise :class:`OptionError` if the tubes would not make a clean tree surface.
 
@@ -688,22 +709,9 @@ def _check_layout(branches, voxel, band, blend, min_radius_voxels=None):
     band), stay above the root plane and keep apart by more than the blend width away
     from the junctions (so the surface there is the single tube's, exactly).
     """
-    rmin = min(float(b.radii.min()) for b in branches)
     least = tol.TREE_MIN_RADIUS_VOXELS if min_radius_voxels is None else float(min_radius_voxels)
-    if rmin < least * voxel:
-        raise OptionError(f"the thinnest tube (radius {rmin:.3g}) is under {least:g} voxels; "
-                          f"use a voxel below {rmin / least:.3g} or fewer levels")
-    for k, b in enumerate(branches):
-        d1, d2 = _eval(b._a, b.t, 1), _eval(b._a, b.t, 2)
-        kappa = np.linalg.norm(np.cross(d1, d2), axis=1) / np.linalg.norm(d1, axis=1) ** 3
-        if np.max(kappa * (b.radii + band)) > tol.TREE_MAX_KAPPA_R:
-            raise OptionError(f"branch {k} bends too sharply for its radius; use a longer length or a smaller radius")
-        low = b.centers[:, 2] - b.radii
-        if k == 0:
-            low = low[b.s > 2 * b.radius_start + tol.TREE_ROOT_PLANE_MARGIN * voxel]
-        if np.any(low < tol.TREE_ROOT_PLANE_MARGIN * voxel):
-            raise OptionError(f"branch {k} reaches below the root plane z = 0; "
-                              "use a smaller branch_angle_deg or another seed")
+    _check_tubes(branches, voxel, band, least, thin="fewer levels", bend="a longer length or a smaller radius",
+                 plane="a smaller branch_angle_deg or another seed")
     for i in range(len(branches)):
         for j in range(i):
             _check_clearance(branches, i, j, blend)
@@ -1544,20 +1552,8 @@ class _ArterialLayout:
 def _check_arterial_layout(branches, voxel, band, blend, min_radius_voxels):
     """:func:`_check_layout`'s checks (thinnest tube, bends, root plane, clearance), the clearance only between
     branches whose boxes come near each other (the pairs of a large tree are too many to check all)."""
-    rmin = min(float(b.radii.min()) for b in branches)
-    if rmin < min_radius_voxels * voxel:
-        raise OptionError(f"the thinnest tube (radius {rmin:.3g}) is under {min_radius_voxels:g} voxels; "
-                          f"use a voxel below {rmin / min_radius_voxels:.3g} or a larger tip_radius")
-    for k, b in enumerate(branches):
-        d1, d2 = _eval(b._a, b.t, 1), _eval(b._a, b.t, 2)
-        kappa = np.linalg.norm(np.cross(d1, d2), axis=1) / np.linalg.norm(d1, axis=1) ** 3
-        if np.max(kappa * (b.radii + band)) > tol.TREE_MAX_KAPPA_R:
-            raise OptionError(f"branch {k} bends too sharply for its radius at voxel {voxel:.3g}; use a smaller voxel")
-        low = b.centers[:, 2] - b.radii
-        if k == 0:
-            low = low[b.s > 2 * b.radius_start + tol.TREE_ROOT_PLANE_MARGIN * voxel]
-        if np.any(low < tol.TREE_ROOT_PLANE_MARGIN * voxel):
-            raise OptionError(f"branch {k} reaches below the root plane z = 0; use a smaller voxel or another seed")
+    _check_tubes(branches, voxel, band, float(min_radius_voxels), thin="a larger tip_radius",
+                 bend="a smaller voxel", plane="a smaller voxel or another seed", at_voxel=True)
     rmax = max(float(b.radii.max()) for b in branches)
     pad = np.array([float(b.radii.max()) for b in branches]) + 0.5 * (tol.TREE_CLEARANCE * rmax + blend)
     lo = np.array([b.centers.min(axis=0) for b in branches]) - pad[:, None]
