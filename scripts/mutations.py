@@ -1493,11 +1493,36 @@ MUTATIONS = {
         "    if used.sum() < tol.MEDIAL_ALL_POINTS:",
         ["tests/test_medial_sample.py"],
     ),
+    # issue #48: the final circle fit's weight follows the data's scatter
+    "no_final_polish": (
+        "vesselgp/fit.py",
+        "            if lam_b >= lam:  # the converged axis is the polished one: nothing to redo",
+        "            if True:  # mutated: never polished",
+        ["tests/test_real_shapes.py"],
+    ),
+    "polish_weight_ignores_scatter": (
+        "vesselgp/fit.py",
+        "    factor = (sigma / tol.GC_LAMBDA_SCATTER) ** 2",
+        "    factor = 0.0",
+        ["tests/test_fit.py", "tests/test_real_shapes.py"],
+    ),
+    "polish_weight_ignores_sparse_walls": (
+        "vesselgp/fit.py",
+        "    if per <= tol.GC_LAMBDA_VERTICES:  # a sparse wall: few vertices per node leave its circles loose",
+        "    if per < 0:  # mutated",
+        ["tests/test_fit.py"],
+    ),
+    "swept_line_not_narrowed_in_bends": (
+        "data_gen/real_shapes.py",
+        "    Rq = np.minimum(Rq, _local_smooth(sg, np.minimum(Rq, low)[:, None], sig)[:, 0])",
+        "    Rq = Rq",
+        ["tests/test_real_shapes.py"],
+    ),
 }
 
 
 def _copy_tree(dst):
-    for name in ("vesselgp", "tests", "docs", "data_gen"):  # docs: the tests read the documented figures (tests/_docs.py); data_gen: the real twist cases
+    for name in ("vesselgp", "tests", "docs", "data_gen", "scripts"):  # docs: the tests read the documented figures (tests/_docs.py); data_gen, scripts: the real cases and their measures
         shutil.copytree(ROOT / name, dst / name, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(ROOT / "pyproject.toml", dst / "pyproject.toml")
 

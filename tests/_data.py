@@ -76,12 +76,17 @@ def decimated(V, F, fraction):
     return m.vertex_matrix().astype(np.float64), m.face_matrix().astype(np.int64)
 
 
+def repo_module(name, folder="data_gen"):
+    """The script ``<folder>/<name>.py`` of this checkout as a module, loaded once."""
+    if name not in sys.modules:
+        path = Path(__file__).resolve().parents[1] / folder / f"{name}.py"
+        spec = importlib.util.spec_from_file_location(name, path)
+        mod = importlib.util.module_from_spec(spec)
+        sys.modules[name] = mod  # dataclasses look their module up
+        spec.loader.exec_module(mod)
+    return sys.modules[name]
+
+
 def real_twist():
     """``data_gen/real_twist.py`` (twisted copies of the real trees with VMTK's truth), loaded once."""
-    if "real_twist" not in sys.modules:
-        path = Path(__file__).resolve().parents[1] / "data_gen" / "real_twist.py"
-        spec = importlib.util.spec_from_file_location("real_twist", path)
-        mod = importlib.util.module_from_spec(spec)
-        sys.modules["real_twist"] = mod  # dataclasses look their module up
-        spec.loader.exec_module(mod)
-    return sys.modules["real_twist"]
+    return repo_module("real_twist")

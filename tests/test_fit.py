@@ -483,3 +483,28 @@ def test_a_singular_problem_stops_alone_in_a_tree_and_raises_alone(monkeypatch):
     assert b.singular and not b.converged and b.step == np.inf and b.count == 0
     with pytest.raises(NotTubularError, match="singular"):
         real([good, empty], **kw)
+
+
+def test_the_final_weight_follows_the_scatter_at_its_edges():
+    """vesselgp.fit.data_lambda (issue #48) at its edges, from residuals of a known robust scatter: +-s / 1.4826
+    alternately (robust sigma 1.4826 median |e| exactly s). lam holds for GC_LAMBDA_VERTICES vertices per segment and
+    fewer (20.0 per segment) and scales from just above (20.1); lam * (s / GC_LAMBDA_SCATTER)^2 between the
+    floor and 1; the floor just below its scatter, lam itself just above GC_LAMBDA_SCATTER."""
+    from vesselgp import tolerances as tol
+    from vesselgp.fit import data_lambda
+
+    def residuals(sigma, n):
+        return sigma / 1.4826 * np.where(np.arange(n) % 2, 1.0, -1.0)
+
+    K, lam = 11, 0.3
+    ref, floor = tol.GC_LAMBDA_SCATTER, tol.GC_LAMBDA_FLOOR
+    per = tol.GC_LAMBDA_VERTICES
+    assert data_lambda(lam, residuals(0.5 * ref, int(per * (K - 1))), K) == lam  # sparse: lam
+    n = int(per * (K - 1)) + 1  # just above: scaled by (sigma / ref)^2
+    assert data_lambda(lam, residuals(0.5 * ref, n), K) == pytest.approx(lam * 0.25, rel=1e-12)
+    s_floor = ref * np.sqrt(floor)
+    assert data_lambda(lam, residuals(0.98 * s_floor, n), K) == pytest.approx(lam * floor, rel=1e-12)
+    assert data_lambda(lam, residuals(1.02 * s_floor, n), K) == pytest.approx(lam * floor * 1.02**2, rel=1e-12)
+    assert data_lambda(lam, residuals(0.98 * ref, n), K) == pytest.approx(lam * 0.98**2, rel=1e-12)
+    assert data_lambda(lam, residuals(1.02 * ref, n), K) == lam
+    assert data_lambda(lam, np.zeros(0), K) == lam  # no radii yet

@@ -15,6 +15,7 @@ import pytest
 import vesselgp
 from vesselgp.synthetic import THREE_TIP_PARENTS, synthetic_tree
 from vesselgp.branches import branch_decomposition
+from vesselgp.inside import sharp_bends
 from vesselgp.tree import VesselTree, fit_vessel_tree
 
 from _data import REAL
@@ -369,9 +370,16 @@ def test_branches_are_held_to_the_bend_limit_and_paths_may_turn_at_junctions(mon
         return k * gc.radius_at(gc.dense_s)
 
     turn = max(kappa_r(p).max() for p in tree.paths)
-    trunk = kappa_r(tree.branches[0])  # the trunk has no junction zone of its own
-    ends = np.minimum(tree.branches[0].dense_s, 1 - tree.branches[0].dense_s) * tree.branches[0].length
-    bend = trunk[ends >= tree.branches[0].mean_radius].max()
+    b = tree.branches[0]
+    # the trunk's bend where the check judges it: past a radius of its ends, outside its junction and medial
+    # zones (sharp_bends with the limit at 0 marks every judged sample)
+    monkeypatch.setattr(tol, "GC_MAX_BEND", 0.0)
+    judged, trunk = sharp_bends(b.dense_s, b.length, b.dense_frames[:, 0], b.radius_at(b.dense_s),
+                                skip_start=tree.junction_zone[0], skip=tree.medial_zones[0])
+    monkeypatch.undo()
+    assert judged.mean() > 0.5
+    assert np.allclose(trunk, kappa_r(b))
+    bend = trunk[judged].max()
     assert bend < turn < tol.GC_MAX_BEND  # a path's turn is rounded, yet sharper than its trunk
     monkeypatch.setattr(tol, "GC_MAX_BEND", 1.05 * bend)  # just above the trunk's bend: fits
     fit_vessel_tree(t.V, t.F)

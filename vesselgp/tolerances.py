@@ -60,6 +60,12 @@ GC_MAX_ITER = 30
 #: Regularisation weights, dimensionless (Eq. 2 lambda and Eq. 4 mu scaled by the node spacing).
 GC_LAMBDA = 0.3
 GC_MU = 1e-1
+#: Eq. 2's weight follows the data (:func:`vesselgp.fit.data_lambda`): ``lam`` holds for a wall scattering
+#: GC_LAMBDA_SCATTER radii about its circles with GC_LAMBDA_VERTICES data vertices per axis segment, and
+#: scales as scatter^2 / vertices below that, never under GC_LAMBDA_FLOOR times ``lam``.
+GC_LAMBDA_SCATTER = 0.01
+GC_LAMBDA_VERTICES = 20
+GC_LAMBDA_FLOOR = 0.05
 #: Robust reweighting: a vertex whose distance to the axis departs from the
 #: local radius by more than this many robust standard deviations gets weight 0
 #: (side branches, cap remnants).

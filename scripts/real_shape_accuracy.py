@@ -1,0 +1,141 @@
+"""Axis accuracy on tubes swept along real centre lines (issue #48), beside VMTK on the same meshes.
+
+Usage::
+
+    python scripts/real_shape_accuracy.py [--case NAME ...] [--vmtk /tmp/peer-vmtk/bin/python] [--remesh] [--json OUT]
+
+For each case of ``data_gen/real_shapes.py`` (real, tortuous centre lines of ``shared/data/real`` with circles
+or ellipses swept along them, exact centre line known) it fits :func:`vesselgp.fit_generalized_cylinder` and
+measures, away from the open ends (``EDGE`` radii of each end cut from it):
+
+- ``mean`` and ``worst``: distance from the exact centre line (its 2001 samples) to the fitted axis polyline
+  (``dense_points``), in % of the local radius;
+- ``over5``: samples of the exact centre line farther than 5 % r from the axis (a stretch with no axis);
+- ``bend``: the worst of those where curvature x radius >= 0.3 (tight bends).
+
+With ``--vmtk`` the same is measured for VMTK 1.5.2's centre line between the two end centres
+(``shared/peers/vmtk/vmtk_centerline.py``, qhull Delaunay); VMTK's line stops short of open ends, so only the
+samples within its arc are counted, and ``vmtk_cover`` says how much of the line it covers.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "data_gen"))
+sys.path.insert(0, str(ROOT / "tests"))
+
+#: Radii (of the end) cut from each end of the exact centre line before measuring.
+EDGE = 2.0
+
+
+def _polyline_distance(X, Q):
+    from _reference import polyline_distance
+
+    return polyline_distance(X, Q)
+
+
+def axis_errors(truth, points):
+    """Exact centre line -> polyline ``points``: distance in % of the local radius at each truth sample, and the
+    mask of the samples measured (``EDGE`` radii of each end cut from it)."""
+    L = truth.length
+    st = truth.s * L
+    inner = (st > EDGE * truth.radii[0]) & (st < L - EDGE * truth.radii[-1])
+    e = 100.0 * _polyline_distance(truth.centers, points) / truth.radii
+    return e, inner
+
+
+def summary(e, mask, kr):
+    m = mask
+    bend = m & (kr >= 0.3)
+    return {"mean": float(e[m].mean()), "worst": float(e[m].max()), "over5": int((e[m] > 5).sum()),
+            "bend": float(e[bend].max()) if bend.any() else None, "samples": int(m.sum())}
+
+
+def run_vmtk(py, V, F, truth):
+    """VMTK's centre line between the swept tube's end centres: its points (k, 3) and the seconds it took."""
+    import vesselgp
+
+    with tempfile.TemporaryDirectory() as d:
+        mesh, out = Path(d) / "tube.stl", Path(d) / "line.npz"
+        vesselgp.write_mesh(mesh, V, F)
+        a, b = truth.centers[0], truth.centers[-1]
+        script = next(p for p in (ROOT.parent / "shared" / "peers" / "vmtk" / "vmtk_centerline.py",
+                                  Path("/work/shared/peers/vmtk/vmtk_centerline.py")) if p.is_file())
+        cmd = [py, str(script), str(mesh), "--source", *map(str, a), "--target", *map(str, b), "-o", str(out),
+               "--delaunay", "qhull"]
+        t0 = time.perf_counter()
+        subprocess.run(cmd, check=True, capture_output=True, text=True)
+        dt = time.perf_counter() - t0
+        z = np.load(out)
+        key = next(k for k in z.files if k.endswith("points"))
+        return z[key].astype(np.float64), dt
+
+
+def measure(name, vmtk=None, remesh=False):
+    import real_shapes as rs
+
+    import vesselgp
+
+    ves = rs.case_vessel(name, remesh=remesh)
+    t = ves.truth
+    kr = rs.bend_profile(t)
+    _, inner = axis_errors(t, t.centers)
+    row = {"case": name, "vertices": len(ves.V), "length_mm": round(t.length, 1),
+           "r_mm": [round(float(t.radii.min()), 2), round(float(t.radii.max()), 2)],
+           "max_kr": round(float(kr[inner].max()), 2)}
+    t0 = time.perf_counter()
+    try:
+        gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    except vesselgp.VesselError as err:  # a refusal is a result of this table, not the end of the run
+        row["vesselgp"] = {"error": str(err)[:160]}
+    else:
+        row["fit_s"], row["iterations"] = round(time.perf_counter() - t0, 2), gc.iterations
+        e, _ = axis_errors(t, gc.dense_points)
+        row["vesselgp"] = summary(e, inner, kr)
+    if vmtk:
+        P, dt = run_vmtk(vmtk, ves.V, ves.F, t)
+        ev, _ = axis_errors(t, P)
+        e = ev
+        # VMTK's line stops where its inscribed sphere meets the open end: count the samples it spans
+        from scipy.spatial import cKDTree
+
+        _, j = cKDTree(t.centers).query(P[[0, -1]])
+        lo, hi = sorted(j)
+        span = np.zeros(len(e), bool)
+        span[lo:hi + 1] = True
+        row["vmtk"] = summary(ev, inner & span, kr)
+        row["vmtk"]["cover"] = round(float((inner & span).sum() / inner.sum()), 3)
+        row["vmtk_s"] = round(dt, 2)
+    return row
+
+
+def main(argv=None):
+    import real_shapes as rs
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--case", nargs="*", choices=sorted(rs.CASES))
+    ap.add_argument("--vmtk", help="python of a VMTK environment (shared/peers/vmtk)")
+    ap.add_argument("--remesh", action="store_true")
+    ap.add_argument("--json", type=Path)
+    a = ap.parse_args(argv)
+    rows = []
+    for name in a.case or list(rs.CASES):
+        row = measure(name, a.vmtk, a.remesh)
+        rows.append(row)
+        print(json.dumps(row), flush=True)
+    if a.json:
+        a.json.write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

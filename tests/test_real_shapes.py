@@ -1,0 +1,165 @@
+"""Real, tortuous anatomy with an exact centre line (issue #48): tubes swept along VMTK's centre lines of the
+real meshes (``data_gen/real_shapes.py``), fitted and measured against the swept line itself.
+
+The figures are docs/accuracy.md's "Real shapes" table (read from it: ``_docs.table``); each bound is 1.5 x
+the figure. The truth never comes from vesselgp: the centre line is the spline the rings were swept along.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from _data import needs_real, repo_module
+from _docs import figure, table
+from _reference import polyline_distance
+
+import vesselgp
+from vesselgp.synthetic import deform_synthetic
+
+FACTOR = 1.5
+
+
+rs = repo_module("real_shapes")
+acc = repo_module("real_shape_accuracy", "scripts")
+
+_ROWS = table("accuracy.md", "case", "real line", "vertices")
+#: case -> (mean, worst) axis error in % r, from the docs table
+DOCS = {case.strip("`"): (figure(row[4]), figure(row[5])) for case, row in _ROWS.items() if row[4] != "refused"}
+REFUSED = sorted(case.strip("`") for case, row in _ROWS.items() if row[4] == "refused")
+
+
+def _mesh(case):
+    return rs.CASES[case].mesh
+
+
+@pytest.fixture(scope="module", params=sorted(DOCS))
+def fitted(request):
+    case = request.param
+    ves = rs.case_vessel(case)
+    return case, ves, vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+
+
+def test_the_docs_table_names_every_case():
+    assert set(DOCS) | set(REFUSED) == set(rs.CASES)
+    assert len(DOCS) >= 6
+
+
+@needs_real(*{c.mesh for c in rs.CASES.values()})
+def test_fitted_axis_follows_the_swept_centre_line(fitted):
+    """Exact centre line -> fitted axis polyline: mean and worst in % of the local radius within 1.5 x the
+    docs table's figures, and no sample of the centre line farther than 5 % r from the axis."""
+    case, ves, gc = fitted
+    mean, worst = DOCS[case]
+    e, inner = acc.axis_errors(ves.truth, gc.dense_points)
+    assert inner.sum() >= 80  # of the 2001 samples of the exact line (90 on the short arch_branch cone)
+    assert e[inner].mean() <= FACTOR * mean, f"{case}: mean {e[inner].mean():.4f} % r (figure {mean})"
+    assert e[inner].max() <= FACTOR * worst, f"{case}: worst {e[inner].max():.3f} % r (figure {worst})"
+    assert (e[inner] <= 5.0).all()
+
+
+@needs_real(*{c.mesh for c in rs.CASES.values()})
+def test_fitted_axis_has_no_excursion_and_ends_on_the_line(fitted):
+    """The other way round: every dense axis point lies on the true centre line within the case's worst figure
+    (away from the ends), the axis reaches both end centres, and its length is the line's within 0.5 %."""
+    case, ves, gc = fitted
+    t = ves.truth
+    _, worst = DOCS[case]
+    L = t.length
+    far = (gc.dense_s * gc.length > acc.EDGE * t.radii[0]) & (gc.dense_s * gc.length < gc.length - acc.EDGE * t.radii[-1])
+    d = polyline_distance(gc.dense_points[far], t.centers)
+    r = np.interp(polyline_foot(gc.dense_points[far], t), t.s * L, t.radii)
+    assert (100 * d / r).max() <= FACTOR * worst, f"{case}: axis leaves the line by {(100 * d / r).max():.3f} % r"
+    ends = sorted(np.linalg.norm(gc.centers[[0, -1]][:, None] - t.centers[[0, -1]][None], axis=2).min(axis=1))
+    assert ends[-1] <= 0.01 * t.radii.min()
+    assert abs(gc.length - L) <= 0.005 * L
+
+
+def polyline_foot(X, t):
+    """Arc length (mm) of the nearest sample of the exact centre line to each point."""
+    from scipy.spatial import cKDTree
+
+    return (t.s * t.length)[cKDTree(t.centers).query(X)[1]]
+
+
+@needs_real(*{c.mesh for c in rs.CASES.values()})
+def test_fitted_radius_is_the_swept_radius(fitted):
+    """The fitted perimeter-mean radius against the swept one, within 1 % over the interior (3 % on the
+    ``arch_branch`` cone, whose fit stops unconverged 2.1 % off: docs/accuracy.md)."""
+    case, ves, gc = fitted
+    t = ves.truth
+    st = t.s * t.length
+    inner = (st > acc.EDGE * t.radii[0]) & (st < t.length - acc.EDGE * t.radii[-1])
+    s_fit = np.clip(polyline_foot_param(gc, t.centers[inner]), 0, 1)
+    rel = np.abs(gc.radius_at(s_fit) / t.radii[inner] - 1)
+    bound = 0.03 if case == "arch_branch" else 0.01  # docs: the unconverged cone's radius is 2.1 % off
+    assert rel.max() <= bound, f"{case}: radius off by {rel.max():.3%}"
+
+
+def polyline_foot_param(gc, X):
+    """Normalised arc length of the nearest dense axis sample to each point."""
+    from scipy.spatial import cKDTree
+
+    return gc.dense_s[cKDTree(gc.dense_points).query(X)[1]]
+
+
+@needs_real(*{c.mesh for c in rs.CASES.values()})
+@pytest.mark.parametrize("case", REFUSED)
+def test_cases_the_fit_cannot_follow_are_refused_not_answered(case):
+    """The swept cases the fit does not follow yet (docs table: "refused") are refused with the reason, never
+    returned with an axis off the line: a 2.5:1 flattened vein and a structured 8-point-around ring mesh in
+    the coronary's bends. Either the fit raises, or its axis is within 5 % r of the line everywhere."""
+    ves = rs.case_vessel(case)
+    try:
+        gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    except vesselgp.VesselError as err:
+        assert "wall" in str(err) or "bends tighter" in str(err)
+        return
+    e, inner = acc.axis_errors(ves.truth, gc.dense_points)
+    assert e[inner].max() <= 5.0, f"{case} answered with an axis {e[inner].max():.1f} % r off its line"
+
+
+@needs_real("xra_coronary_single_branch_open.stl")
+def test_the_swept_tube_is_the_stated_shape():
+    """The generator's own truth: every vertex at its section's radius from the swept centre line, the bends
+    within KR_MAX (curvature x radius), and the line within half a radius of VMTK's line it was made from."""
+    ves = rs.case_vessel("coronary")
+    t = ves.truth
+    c, _ = t.axis_at(t.vertex_s)
+    d = np.linalg.norm(ves.V - c, axis=1)
+    assert np.allclose(d, t.section_radius(t.vertex_s, t.vertex_theta), rtol=1e-9, atol=0)
+    assert rs.bend_profile(t).max() <= rs.KR_MAX * 1.05
+    from _data import vmtk_lines
+
+    P, _ = vmtk_lines(rs.CASES["coronary"].mesh)[0]
+    dv = polyline_distance(t.centers, P)
+    assert (dv / t.radii).max() <= 0.5
+
+
+@needs_real("xra_coronary_single_branch_open.stl")
+@pytest.mark.parametrize("twist", ["uniform", "ramp"])
+def test_torsion_on_the_swept_coronary_is_the_imposed_twist(twist):
+    """A known twist about the real coronary's line (the swept rings turned by alpha(s) about it): the measured
+    alpha within the single-tube bound of docs/accuracy.md (the torsion table's worst row, 0.43 degrees ->
+    0.645) and the energy within its 0.75 % (-> 1.125 %)."""
+    ves = rs.case_vessel("coronary")
+    gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    if twist == "uniform":
+        alpha, dalpha = (lambda s: 1.2 * np.asarray(s)), (lambda s: np.full_like(np.asarray(s, float), 1.2))
+    else:
+        alpha = lambda s: np.pi * 0.5 * (1 - np.cos(np.pi * np.clip((np.asarray(s) - 0.3) / 0.4, 0, 1)))  # noqa: E731
+        dalpha = lambda s: np.where((np.asarray(s) > 0.3) & (np.asarray(s) < 0.7),  # noqa: E731
+                                    np.pi * 0.5 * np.pi / 0.4 * np.sin(np.pi * (np.asarray(s) - 0.3) / 0.4), 0.0)
+    Vd = deform_synthetic(ves, twist=alpha)
+    prof = vesselgp.measure_torsion(ves.V, Vd, ves.F, rest=gc)
+    t = ves.truth
+    reverse = np.linalg.norm(gc.centers[0] - t.centers[0]) > np.linalg.norm(gc.centers[0] - t.centers[-1])
+    s_true = 1 - prof.s if reverse else prof.s
+    a_true = alpha(s_true) - alpha(s_true[0])
+    if reverse:
+        a_true = -a_true
+    inner = (prof.s > 0.05) & (prof.s < 0.95)
+    err = np.degrees(np.abs(prof.alpha - a_true)[inner].max())
+    assert err <= 0.645, f"{twist}: alpha off by {err:.3f} deg"
+    s = np.linspace(0, 1, 20001)
+    e_true = float(np.trapezoid(dalpha(s) ** 2, s))
+    assert abs(prof.energy - e_true) <= 0.01125 * e_true, (prof.energy, e_true)
