@@ -29,6 +29,11 @@ inscribed sphere radius at every point).
    ends; optionally an imposed material twist and pymeshlab's isotropic remeshing. The centre line of the
    swept tube is the spline exactly: its ``truth.centers`` are the ring centres.
 
+3. *Trees* (:func:`real_network_tree`, :data:`NETWORK_TREES`). A real tree's whole network: each line joins the
+   lines placed before it where it leaves them, the parent is split there, and the union of the swept
+   splines is meshed by the synthetic arterial tree's mesher (:func:`vesselgp.synthetic.synthetic_arterial_tree`:
+   narrow-band marching cubes, blended junctions, vertices projected onto the exact surface).
+
 The cases (:data:`CASES`) are the real meshes' most tortuous lines: the X-ray coronary (one tube), the
 XCAT coronary tree's longest line and its thinnest branch, the 4D-flow arch's descending line and a
 supra-aortic branch, the carotid's internal branch, the renal-iliac tree's renal and iliac lines. The thin
@@ -203,3 +208,231 @@ def main(argv=None):
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+# --------------------------------------------------------------------------- #
+# trees: the real centre-line networks swept as a union of tubes
+# --------------------------------------------------------------------------- #
+#: A VMTK line leaves the lines already placed where it stays farther than this many of their local radii.
+DEPART = 0.5
+#: Samples of each branch's quintic spline (uniform in arc length).
+BRANCH_SAMPLES = 801
+
+
+def _polyline_branch_class():
+    """:class:`PolylineBranch`, made on first use (it subclasses vesselgp's private TreeBranch)."""
+    from dataclasses import dataclass
+
+    from scipy.interpolate import make_interp_spline
+
+    from vesselgp.synthetic_tree import TreeBranch
+
+    @dataclass(frozen=True)
+    class PolylineBranch(TreeBranch):
+        """A tree branch about a quintic spline through smoothed VMTK points (uniform in arc length,
+        ``t`` in [0, 1]) with a cubic spline radius; the methods of the Bezier branch it stands for."""
+
+        curve: object = None
+        rcurve: object = None
+
+        @classmethod
+        def build(cls, P, R, parent, level):
+            s = arc_length(P)
+            u = s / s[-1]
+            curve = make_interp_spline(u, P, k=5)
+            rcurve = make_interp_spline(u, R, k=3)
+            t = np.linspace(0.0, 1.0, BRANCH_SAMPLES)
+            C = curve(t)
+            return cls(control=np.array([P[0], P[0], P[-1], P[-1]]), radius_start=float(R[0]),
+                       radius_end=float(R[-1]), parent=int(parent), junction=P[0].copy(), level=int(level), t=t,
+                       centers=C, radii=rcurve(t), s=arc_length(C), length=float(arc_length(C)[-1]),
+                       curve=curve, rcurve=rcurve)
+
+        @property
+        def _seeds(self):
+            if "_seed_cache" not in self.__dict__:
+                from scipy.spatial import cKDTree
+
+                ts = np.linspace(0.0, 1.0, 4 * BRANCH_SAMPLES)
+                object.__setattr__(self, "_seed_cache", (ts, cKDTree(self.curve(ts))))
+            return self.__dict__["_seed_cache"]
+
+        def point(self, t):
+            return self.curve(np.atleast_1d(t))
+
+        def tangent(self, t):
+            d = self.curve(np.atleast_1d(t), 1)
+            return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+        def radius(self, t):
+            return self.rcurve(np.asarray(t, dtype=np.float64))
+
+        def radius_slope(self, t):
+            return self.rcurve(np.asarray(t, dtype=np.float64), 1)
+
+        def _newton(self, X, t, steps):
+            for _ in range(steps):
+                D = self.curve(t) - X
+                d1, d2 = self.curve(t, 1), self.curve(t, 2)
+                g = np.einsum("ij,ij->i", D, d1)
+                s2 = np.einsum("ij,ij->i", d1, d1)
+                dg = s2 + np.einsum("ij,ij->i", D, d2)
+                dg = np.where(dg > 0, dg, s2)
+                t = np.clip(t - g / dg, 0.0, 1.0)
+            return t, np.linalg.norm(X - self.curve(t), axis=1)
+
+        @property
+        def _seed_error(self):
+            ts = self._seeds[0]
+            P = self.curve(ts)
+            return (2 * float(np.max(np.linalg.norm(np.diff(P, axis=0), axis=1))) + 0.01 * self.radius_start
+                    + 2 * float(np.max(np.abs(self.radius_slope(ts)))) * (ts[1] - ts[0]))
+
+        def _field_t(self, X, t, gradient):
+            t, d = self.foot(X, t)
+            f = d - self.radius(t)
+            if not gradient:
+                return f, None, t
+            B, d1, d2 = self.curve(t), self.curve(t, 1), self.curve(t, 2)
+            n = (X - B) / np.maximum(d, 1e-300)[:, None]
+            den = np.einsum("ij,ij->i", d1, d1) + np.einsum("ij,ij->i", B - X, d2)
+            inside = (t > 0) & (t < 1)
+            dt = np.divide(d1, den[:, None], out=np.zeros_like(d1), where=inside[:, None])
+            return f, n - self.radius_slope(t)[:, None] * dt, t
+
+    return PolylineBranch
+
+
+def real_network(mesh, lines=None, smooth=SMOOTH, reverse_root=False):
+    """The branches of VMTK's centre-line network of ``mesh`` (step 1 of the module notes for every line).
+
+    Line ``lines[0]`` is the root path (from its far end with ``reverse_root``: an arch rooted at its
+    descending aorta, which would otherwise cross the root's plane). Every other line runs with the lines placed before it from the
+    source and leaves them where it stays farther than ``DEPART`` of their local radii; it starts at the
+    nearest point of the line it leaves (a junction) just before that, and that line is split there. Two
+    lines leaving within a radius of each other leave at one junction (a trifurcation).
+
+    Returns
+    -------
+    pieces : list of (P (k, 3), R (k,), parent)
+        Each branch's smoothed points, radii and parent index (-1 for the root), parents first.
+    """
+    from scipy.spatial import cKDTree
+
+    n_lines = len(load_tree(mesh)[2])
+    order = list(range(n_lines)) if lines is None else list(lines)
+    placed = []  # (P, R, line index)
+    splits = {}  # placed index -> list of (point index, child placed index)
+    for k in order:
+        P, R = real_centerline(mesh, k, smooth, trim=0.0)
+        if not placed:
+            placed.append((P[::-1].copy(), R[::-1].copy()) if reverse_root else (P, R))
+            continue
+        d, near, owner = np.full(len(P), np.inf), np.zeros(len(P), int), np.zeros(len(P), int)
+        for j, (Q, RQ) in enumerate(placed):
+            dj, ij = cKDTree(Q).query(P)
+            better = dj / RQ[ij] < d
+            d[better], near[better], owner[better] = (dj / RQ[ij])[better], ij[better], j
+        out = d > DEPART
+        stays = np.flatnonzero(~out)
+        if len(stays) == 0 or stays[-1] == len(P) - 1:
+            continue  # never with the others, or never leaves them
+        i0 = stays[-1]  # the last point still with the placed lines: the branch starts at its foot there
+        j, at = int(owner[i0]), int(near[i0])
+        Q = placed[j][0]
+        start = Q[at]
+        tail = P[i0 + 1:]
+        keep = np.linalg.norm(tail - start, axis=1) > 0.5 * placed[j][1][at]
+        first = int(np.argmax(keep))
+        piece = np.vstack([start, tail[first:]])
+        placed.append((piece, np.concatenate([[R[i0]], R[i0 + 1 + first:]])))
+        splits.setdefault(j, []).append((at, len(placed) - 1))
+    return _split(placed, splits)
+
+
+def _split(placed, splits):
+    """Placed lines cut at their children's junctions into branches (parent before child)."""
+    pieces = []  # (P, R, parent)
+    end_of = {}
+
+    def add(j, parent):
+        P, R = placed[j]
+        cuts = sorted(splits.get(j, []))
+        merged = []  # junctions within a radius of each other are one
+        for at, child in cuts:
+            if merged and np.linalg.norm(P[at] - P[merged[-1][0]]) < R[at]:
+                merged[-1][1].append(child)
+            else:
+                merged.append((at, [child]))
+        a, par = 0, parent
+        for at, children in merged:
+            if at <= a or at >= len(P) - 1:
+                raise ValueError(f"line {j}: a junction at its very start or end; choose other lines")
+            pieces.append((P[a:at + 1], R[a:at + 1], par))
+            par = len(pieces) - 1
+            for c in children:
+                end_of[c] = par
+            a = at
+            for c in children:
+                add(c, par)
+        pieces.append((P[a:], R[a:], par))
+
+    add(0, -1)
+    return pieces
+
+
+def real_network_tree(mesh, *, lines=None, voxel=None, blend=None, smooth=SMOOTH, reverse_root=False):
+    """A synthetic tree whose branches are VMTK's centre-line network of real mesh ``mesh`` (:func:`real_network`),
+    meshed as :func:`vesselgp.synthetic.synthetic_arterial_tree` meshes its own (marching cubes of the smooth
+    union of the tubes on a narrow band, every vertex projected onto the exact surface).
+
+    The network is moved rigidly so that its root starts at the origin along +z (the root is cut open by the
+    plane z = 0); the tips are rounded. ``voxel`` defaults to a third of the thinnest radius, ``blend`` to half
+    of it. Returns a :class:`vesselgp.synthetic.SyntheticTree` whose truth is the swept splines.
+    """
+    from scipy.spatial.transform import Rotation
+
+    from vesselgp import tolerances as tol
+    from vesselgp.synthetic_tree import (SyntheticTree, TreeTruth, _band_grid, _band_marching_cubes,
+                                         _check_parents, _ends_and_paths, _finish, _project_candidates)
+
+    PolylineBranch = _polyline_branch_class()
+    pieces = real_network(mesh, lines, smooth, reverse_root)
+    P0 = pieces[0][0]
+    head = P0[np.searchsorted(arc_length(P0), pieces[0][1][0])] - P0[0]  # the root's direction over a radius
+    rot, _ = Rotation.align_vectors([[0.0, 0.0, 1.0]], [head / np.linalg.norm(head)])
+    move = lambda P: (P - P0[0]) @ rot.as_matrix().T  # noqa: E731
+    parents = [p for _, _, p in pieces]
+    level = []
+    for p in parents:
+        level.append(0 if p < 0 else level[p] + 1)
+    branches = tuple(PolylineBranch.build(move(P), R, p, lv) for (P, R, p), lv in zip(pieces, level))
+    _, children = _check_parents(np.array(parents))
+    ends, paths = _ends_and_paths(branches, children)
+    rmin = min(float(b.radii.min()) for b in branches)
+    h = rmin / 3.0 if voxel is None else float(voxel)
+    blend = 0.5 * rmin if blend is None else float(blend)
+    truth = TreeTruth(branches=branches, ends=ends, paths=paths, blend=blend,
+                      root_plane=np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0]]), units="mm")
+    band = tol.TREE_BAND_VOXELS * h + blend
+    origin, shape = _band_grid(branches, h, band)
+    V, F, cand = _band_marching_cubes(truth, origin, h, shape, band)
+    V = _project_candidates(truth, V, cand, V[:, 2] == 0.0, h)
+    V, F, loop = _finish(V, F, truth)
+    return SyntheticTree(V=V, F=F, truth=truth, root_loop=loop, voxel=h, staircase=False, seed=0)
+
+
+#: The real networks swept as trees: name -> (mesh, options of real_network_tree).
+NETWORK_TREES = {
+    "renal_iliac": ("gmsh_abdominal-aorta-renal-iliac_open.stl", {"voxel": 0.9}),
+    "arch": ("cardiopinns_aortic-arch-4dflow_capped.stl", {"reverse_root": True}),
+    "carotid": ("gmsh_carotid-bifurcation_open.stl", {}),
+    "aorto_iliac": ("vmtk_abdominal_aorta_iliac_bifurcation_open.stl", {}),
+    "xcat": ("xrayangio_xcat-coronary-tree_open.stl", {"voxel": 0.2}),
+}
+
+
+def network_tree(name):
+    """:func:`real_network_tree` of :data:`NETWORK_TREES` ``name``."""
+    mesh, options = NETWORK_TREES[name]
+    return real_network_tree(mesh, **options)

@@ -35,6 +35,8 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 #: Radii (of the end) cut from each end of the exact centre line before measuring.
 EDGE = 2.0
+#: On a tree, parent radii about each junction not measured.
+JUNCTION = 3.0
 
 
 def _polyline_distance(X, Q):
@@ -51,6 +53,25 @@ def axis_errors(truth, points):
     inner = (st > EDGE * truth.radii[0]) & (st < L - EDGE * truth.radii[-1])
     e = 100.0 * _polyline_distance(truth.centers, points) / truth.radii
     return e, inner
+
+
+def tree_axis_errors(truth, tree):
+    """Each true branch's centre line -> the nearest of the fitted tree's path axes, in % of the local radius,
+    with the mask of the samples measured: farther than ``JUNCTION`` parent radii from every junction and
+    ``EDGE`` radii from the ends (there the fitted axis follows the junction's lumen, not either tube).
+
+    Returns a list of (e, mask) per true branch, in :attr:`TreeTruth.branches` order."""
+    J, JR = truth.junctions
+    Q = [p.dense_points for p in tree.paths]
+    out = []
+    for br in truth.branches:
+        C, R, s = br.centers, br.radii, br.s
+        e = 100.0 * np.min([_polyline_distance(C, q) for q in Q], axis=0) / R
+        far = (s > EDGE * R[0]) & (s < s[-1] - EDGE * R[-1])
+        for j, r in zip(J, JR):
+            far &= np.linalg.norm(C - j, axis=1) > JUNCTION * r
+        out.append((e, far))
+    return out
 
 
 def summary(e, mask, kr):
