@@ -428,7 +428,7 @@ NETWORK_TREES = {
     "arch": ("cardiopinns_aortic-arch-4dflow_capped.stl", {"reverse_root": True}),
     "carotid": ("gmsh_carotid-bifurcation_open.stl", {}),
     "aorto_iliac": ("vmtk_abdominal_aorta_iliac_bifurcation_open.stl", {}),
-    "xcat": ("xrayangio_xcat-coronary-tree_open.stl", {"voxel": 0.2}),
+    "xcat": ("xrayangio_xcat-coronary-tree_open.stl", {"voxel": 0.25}),
 }
 
 

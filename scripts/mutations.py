@@ -1512,6 +1512,18 @@ MUTATIONS = {
         "    if per < 0:  # mutated",
         ["tests/test_fit.py"],
     ),
+    "twist_members_not_agreed": (
+        "vesselgp/twist.py",
+        "    A, B = _agree_members(A, B, ia, ib)",
+        "    pass",
+        ["tests/test_twist.py"],
+    ),
+    "twist_member_reused": (
+        "vesselgp/twist.py",
+        "                         if int(a[\"branch\"]) not in used[\"a\"] and int(b[\"branch\"]) not in used[\"b\"])",
+        "                         )",
+        ["tests/test_twist.py"],
+    ),
     "swept_line_not_narrowed_in_bends": (
         "data_gen/real_shapes.py",
         "    Rq = np.minimum(Rq, _local_smooth(sg, np.minimum(Rq, low)[:, None], sig)[:, 0])",

@@ -190,3 +190,45 @@ def test_every_side_tip_is_found(pairs, name):
     p, _ = pairs(name)
     for V, F, truth in ((p.a.V, p.a.F, p.a.truth), (p.V_b, p.b.F, p.b.truth)):
         assert len(vg.vessel_ends(V, F)) == len(truth.ends) == len(p.s_a) + 2
+
+
+def test_branches_leaving_together_are_the_same_landmark_in_both_scans():
+    """Two renal arteries at one level (the renal-iliac twist case, issue #48's note): scan A merged branch 3 into
+    branch 1's landmark and kept branch 4 alone, scan B merged branches 4 and 3 and kept the wider, 4 -- the other
+    artery (radii 2.67 against 2.48). A segment then read 136 degrees off with a 6-degree interval. The matched
+    pair must be made of the members most alike in position, radius and length: B's branch 3 (75.4 long, as A's
+    branch 4 is 74.9), with its own azimuth; a pair with no choice is left alone; a branch is used once."""
+    from vesselgp.twist import Landmarks, _agree_members
+
+    def member(s, r, length, branch, az):
+        return dict(s=s, point=np.array([0.0, 0.0, s]), azimuth=az, direction=np.array([1.0, 0.0, 0.0]),
+                    radius=r, branch=branch, angle=1.2, divides=False, uncertainty=0.1, length=length)
+
+    def landmarks(groups, kept):
+        rows = [g[k] for g, k in zip(groups, kept)]
+        col = {key: np.array([r[key] for r in rows]) for key in rows[0]}
+        return Landmarks(tree=None, ends=(0, 1), main=None, length=300.0, points=col["point"], s=col["s"],
+                         azimuth=col["azimuth"], direction=col["direction"], radius=col["radius"],
+                         branch=col["branch"], angle=col["angle"], divides=col["divides"],
+                         uncertainty=col["uncertainty"], main_axis="single fit", leaves=np.zeros(0),
+                         members=tuple(tuple(g) for g in groups))
+
+    A = landmarks([[member(48.6, 3.13, 83.3, 1, 0.5), member(53.6, 2.69, 52.9, 3, 2.9)],
+                   [member(55.5, 2.53, 74.9, 4, -0.4)], [member(160.0, 6.33, 203.1, 7, 1.0)]], [0, 0, 0])
+    B = landmarks([[member(48.4, 3.11, 83.7, 1, 0.6), member(47.8, 2.49, 53.5, 2, -2.0)],
+                   [member(53.7, 2.67, 53.8, 4, 3.0), member(54.2, 2.48, 75.4, 3, -0.3)],
+                   [member(160.0, 6.32, 203.0, 7, 1.1)]], [0, 0, 0])
+    ia = ib = np.arange(3)
+    A2, B2 = _agree_members(A, B, ia, ib)
+    assert A2.branch.tolist() == [1, 4, 7] and B2.branch.tolist() == [1, 3, 7]
+    assert B2.azimuth[1] == -0.3 and B2.s[1] == 54.2 and B2.radius[1] == 2.48  # the member's own values
+    assert A2.azimuth.tolist() == A.azimuth.tolist() and B2.azimuth[[0, 2]].tolist() == [0.6, 1.1]
+    # the member another pair took is not taken twice: A's landmark 0 offered only branch 3 (A's branch 1 used)
+    A3 = landmarks([[member(48.6, 3.13, 83.3, 1, 0.5)], [member(50.0, 3.1, 83.0, 1, 0.5),
+                                                          member(53.6, 2.69, 52.9, 3, 2.9)]], [0, 0])
+    B3 = landmarks([[member(48.4, 3.11, 83.7, 1, 0.6)], [member(53.7, 2.67, 53.8, 4, 3.0)]], [0, 0])
+    A4, B4 = _agree_members(A3, B3, np.arange(2), np.arange(2))
+    assert A4.branch.tolist() == [1, 3] and B4.branch.tolist() == [1, 4]
+    # seen from the other end, a member's s and azimuth turn with its landmark's
+    F = A.flipped()
+    assert F.members[0][0]["s"] == 300.0 - 160.0 and F.members[-1][1]["azimuth"] == -2.9

@@ -662,6 +662,9 @@ TWIST_MATCH_POSITION = 0.08
 TWIST_MATCH_RADIUS = 0.4
 #: Cost of leaving a landmark unmatched (a pair costs the sum of its squared normalised differences).
 TWIST_MATCH_GAP = 4.5
+#: twist_between: scale of the side branches' length log ratio when choosing, between the scans, which of
+#: several branches leaving together is the landmark (vesselgp.twist._agree_members).
+TWIST_MATCH_LENGTH = 0.3
 #: The two directions of scan B are called equally good when their match costs differ by less than this fraction.
 TWIST_DIRECTION_MARGIN = 0.1
 #: A segment twist above this many degrees is logged as a suspect match.

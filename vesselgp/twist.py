@@ -43,7 +43,11 @@ do, from the side branches used as fiducials:
    programming on their normalised position ``s / L`` and radius
    (``TWIST_MATCH_POSITION``, ``TWIST_MATCH_RADIUS``, a landmark left unmatched
    costs ``TWIST_MATCH_GAP``). Without given ends the second scan's direction is
-   chosen by the landmarks (the order that matches better). Unmatched
+   chosen by the landmarks (the order that matches better). Where side branches
+   leave together (step 2), each matched pair is then made of the two branches,
+   one per scan, most alike in position, radius and length
+   (``TWIST_MATCH_LENGTH``; :func:`_agree_members`), not of each scan's wider
+   one. Unmatched
    landmarks are reported (and logged); a segment twist above
    ``TWIST_SUSPECT_DEG`` is logged as a suspect match.
 5. **Twist and its uncertainty.** With ``delta_j = azimuth_b[j] - azimuth_a[j]``,
@@ -76,7 +80,7 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -137,6 +141,11 @@ class Landmarks:
     reversed : bool
         The main axis runs from the tree's path end back to its root (``s``
         measured from ``ends[0]`` all the same).
+    members : tuple of tuple of dict
+        For each landmark, the side branches leaving there together (``TWIST_SAME_PLACE``; itself included),
+        each as its landmark row (``s``, ``point``, ``azimuth``, ``direction``, ``radius``, ``branch``,
+        ``angle``, ``divides``, ``uncertainty``, ``length``): which of them is the landmark is settled
+        against the other scan (:func:`_agree_members`).
     """
 
     tree: object
@@ -155,6 +164,7 @@ class Landmarks:
     main_axis: str
     leaves: np.ndarray
     reversed: bool = False
+    members: tuple = ()
 
     def flipped(self):
         """The same landmarks seen from the other end: ``s -> L - s``, azimuth negated, order reversed."""
@@ -163,7 +173,9 @@ class Landmarks:
                          points=self.points[o], s=(self.length - self.s)[o], azimuth=(-self.azimuth)[o],
                          direction=self.direction[o], radius=self.radius[o], branch=self.branch[o],
                          angle=self.angle[o], divides=self.divides[o], uncertainty=self.uncertainty[o],
-                         main_axis=self.main_axis, leaves=self.length - self.leaves, reversed=not self.reversed)
+                         main_axis=self.main_axis, leaves=self.length - self.leaves, reversed=not self.reversed,
+                         members=tuple(tuple(dict(m, s=self.length - m["s"], azimuth=-m["azimuth"]) for m in g)
+                                       for g in self.members[::-1]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -374,15 +386,19 @@ def _divides(side_radius, next_radius):
 
 def _together(rows, quiet=False):
     """Landmark rows (sorted by ``s``) with side branches whose ostia lie within ``TWIST_SAME_PLACE`` main radii
-    merged: they leave the main vessel together, and the wider is the landmark (step 2)."""
+    merged: they leave the main vessel together, and the wider is the landmark (step 2); each kept row lists
+    the group's rows as ``members`` (the other scan settles which member is the landmark: :func:`_agree_members`)."""
     kept = []
     for r in rows:  # two side branches leaving together: one landmark, the wider
+        r = dict(r, members=[r])
         if kept and r["s"] - kept[-1]["s"] < tol.TWIST_SAME_PLACE * max(r["r_main"], kept[-1]["r_main"]):
             if not quiet:
                 log.warning("side branches %d and %d leave the main vessel together (s = %.3g and %.3g); the wider "
                             "is the landmark", kept[-1]["branch"], r["branch"], kept[-1]["s"], r["s"])
+            members = kept[-1]["members"] + [r]
             if r["radius"] > kept[-1]["radius"]:
                 kept[-1] = r
+            kept[-1]["members"] = members
             continue
         kept.append(r)
     return kept
@@ -571,11 +587,16 @@ def _landmarks(tree, k, main, kind, h):
             log.warning("the main vessel divides at s = %.3g into comparable daughters (side radius %.3g): its "
                         "direction there is less well defined, the landmark's uncertainty says by how much",
                         r["s"], r["radius"])
-    col = {key: np.array([r[key] for r in rows]) for key in rows[0]}
+    col = {key: np.array([r[key] for r in rows]) for key in rows[0] if key != "members"}
+    members = tuple(tuple(dict(s=m["s"], point=m["point"], azimuth=m["azimuth"], direction=m["direction"],
+                               radius=m["radius"], branch=m["branch"], angle=m["angle"], divides=m["divides"],
+                               uncertainty=tol.TWIST_Z95 * m["sigma"], length=float(tree.branches[m["branch"]].length))
+                          for m in r["members"]) for r in rows)
     return Landmarks(tree=tree, ends=(i, j), main=main, length=float(main.length), points=col["point"],
                      s=col["s"], azimuth=col["azimuth"], direction=col["direction"], radius=col["radius"],
                      branch=col["branch"].astype(np.int64), angle=col["angle"], divides=col["divides"],
-                     uncertainty=tol.TWIST_Z95 * col["sigma"], main_axis=kind, leaves=_leaves(main, tree, k))
+                     uncertainty=tol.TWIST_Z95 * col["sigma"], main_axis=kind, leaves=_leaves(main, tree, k),
+                     members=members)
 
 
 def _match(A, B):
@@ -601,6 +622,55 @@ def _match(A, B):
         else:
             j -= 1
     return pairs[::-1], float(D[na, nb])
+
+
+_MEMBER_KEYS = ("s", "point", "azimuth", "direction", "radius", "branch", "angle", "divides", "uncertainty")
+_MEMBER_FIELDS = ("s", "points", "azimuth", "direction", "radius", "branch", "angle", "divides", "uncertainty")
+
+
+def _member_cost(a, b, la, lb):
+    """How unlike two side branches are, by what a twist leaves alone: position along the main axis (normalised
+    by the lengths ``la``, ``lb``), radius and length (log ratios)."""
+    return (((a["s"] / la - b["s"] / lb) / tol.TWIST_MATCH_POSITION) ** 2
+            + (math.log(a["radius"] / b["radius"]) / tol.TWIST_MATCH_RADIUS) ** 2
+            + (math.log(a["length"] / b["length"]) / tol.TWIST_MATCH_LENGTH) ** 2)
+
+
+def _agree_members(A, B, ia, ib):
+    """Landmarks ``A``, ``B`` with each matched pair ``(ia[q], ib[q])`` made of the same side branch where
+    either scan has several leaving there together (``members``).
+
+    Within a scan, "the wider of the branches leaving together" is a coin toss when their radii are close, and
+    which branches count as together depends on ostia a few tenths of a radius apart: two renal arteries at one
+    level were the landmark in one scan and the other one in the other, a segment 136 degrees off with a
+    6-degree interval. Each matched pair therefore takes the two members (one per scan) most alike in position,
+    radius and length (:func:`_member_cost`), never a branch another pair already took."""
+    if not A.members or not B.members:
+        return A, B
+    cols = {X: {f: np.array(getattr(L, f), copy=True) for f in _MEMBER_FIELDS} for X, L in (("a", A), ("b", B))}
+    used = {"a": set(), "b": set()}  # first the pairs with no choice
+    for i, j in zip(ia, ib):
+        if len(A.members[i]) == 1 and len(B.members[j]) == 1:
+            used["a"].add(int(A.branch[i]))
+            used["b"].add(int(B.branch[j]))
+    for i, j in zip(ia, ib):
+        ga, gb = A.members[i], B.members[j]
+        if len(ga) == 1 and len(gb) == 1:
+            continue
+        options = sorted((_member_cost(a, b, A.length, B.length), ka, kb)
+                         for ka, a in enumerate(ga) for kb, b in enumerate(gb)
+                         if int(a["branch"]) not in used["a"] and int(b["branch"]) not in used["b"])
+        if not options:
+            continue
+        _, ka, kb = options[0]
+        for X, g, k, at in (("a", ga, ka, i), ("b", gb, kb, j)):
+            used[X].add(int(g[k]["branch"]))
+            for key, f in zip(_MEMBER_KEYS, _MEMBER_FIELDS):
+                cols[X][f][at] = g[k][key]
+        if ka or kb:
+            log.info("twist_between: landmarks %d / %d are side branches %d / %d (most alike of those leaving "
+                     "there together)", i, j, ga[ka]["branch"], gb[kb]["branch"])
+    return replace(A, **cols["a"]), replace(B, **cols["b"])
 
 
 def _segment_uncertainty(u_a, u_b, r_a, r_b, n_path):
@@ -683,6 +753,7 @@ def twist_between(V_a, F_a=None, V_b=None, F_b=None, *, ends_a=None, ends_b=None
         raise EndsError(f"only {len(pairs)} of {len(A.s)} and {len(B.s)} side branches match between the scans; "
                         "check that both scans show the same stretch of artery (or give ends_a and ends_b)")
     ia, ib = (np.array(x, np.int64) for x in zip(*pairs))
+    A, B = _agree_members(A, B, ia, ib)
     un_a = np.setdiff1d(np.arange(len(A.s)), ia)
     un_b = np.setdiff1d(np.arange(len(B.s)), ib)
     if len(un_a) or len(un_b):
