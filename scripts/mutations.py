@@ -1516,7 +1516,7 @@ MUTATIONS = {
         "vesselgp/twist.py",
         "    A, B = _agree_members(A, B, ia, ib)",
         "    pass",
-        ["tests/test_twist.py"],
+        ["tests/test_twist_real.py"],
     ),
     "twist_member_reused": (
         "vesselgp/twist.py",

@@ -223,9 +223,10 @@ def test_branches_leaving_together_are_the_same_landmark_in_both_scans():
     assert A2.branch.tolist() == [1, 4, 7] and B2.branch.tolist() == [1, 3, 7]
     assert B2.azimuth[1] == -0.3 and B2.s[1] == 54.2 and B2.radius[1] == 2.48  # the member's own values
     assert A2.azimuth.tolist() == A.azimuth.tolist() and B2.azimuth[[0, 2]].tolist() == [0.6, 1.1]
-    # the member another pair took is not taken twice: A's landmark 0 offered only branch 3 (A's branch 1 used)
-    A3 = landmarks([[member(48.6, 3.13, 83.3, 1, 0.5)], [member(50.0, 3.1, 83.0, 1, 0.5),
-                                                          member(53.6, 2.69, 52.9, 3, 2.9)]], [0, 0])
+    # the member another pair took is not taken twice: A's landmark 1 offers branch 1 (the very image of B's
+    # branch 4, but landmark 0 took it) and branch 3
+    A3 = landmarks([[member(48.6, 3.13, 83.3, 1, 0.5)], [member(53.7, 2.67, 53.8, 1, 0.5),
+                                                          member(55.0, 3.0, 70.0, 3, 2.9)]], [0, 0])
     B3 = landmarks([[member(48.4, 3.11, 83.7, 1, 0.6)], [member(53.7, 2.67, 53.8, 4, 3.0)]], [0, 0])
     A4, B4 = _agree_members(A3, B3, np.arange(2), np.arange(2))
     assert A4.branch.tolist() == [1, 3] and B4.branch.tolist() == [1, 4]
