@@ -222,8 +222,10 @@ BRANCH_SAMPLES = 801
 def _polyline_branch_class():
     """:class:`PolylineBranch`, made on first use (it subclasses vesselgp's private TreeBranch)."""
     from dataclasses import dataclass
+    from functools import cached_property
 
     from scipy.interpolate import make_interp_spline
+    from scipy.spatial import cKDTree
 
     from vesselgp.synthetic_tree import TreeBranch
 
@@ -248,14 +250,10 @@ def _polyline_branch_class():
                        centers=C, radii=rcurve(t), s=arc_length(C), length=float(arc_length(C)[-1]),
                        curve=curve, rcurve=rcurve)
 
-        @property
+        @cached_property
         def _seeds(self):
-            if "_seed_cache" not in self.__dict__:
-                from scipy.spatial import cKDTree
-
-                ts = np.linspace(0.0, 1.0, 4 * BRANCH_SAMPLES)
-                object.__setattr__(self, "_seed_cache", (ts, cKDTree(self.curve(ts))))
-            return self.__dict__["_seed_cache"]
+            ts = np.linspace(0.0, 1.0, 4 * BRANCH_SAMPLES)
+            return ts, cKDTree(self.curve(ts))
 
         def point(self, t):
             return self.curve(np.atleast_1d(t))
@@ -281,7 +279,7 @@ def _polyline_branch_class():
                 t = np.clip(t - g / dg, 0.0, 1.0)
             return t, np.linalg.norm(X - self.curve(t), axis=1)
 
-        @property
+        @cached_property
         def _seed_error(self):
             ts = self._seeds[0]
             P = self.curve(ts)
@@ -353,7 +351,6 @@ def real_network(mesh, lines=None, smooth=SMOOTH, reverse_root=False):
 def _split(placed, splits):
     """Placed lines cut at their children's junctions into branches (parent before child)."""
     pieces = []  # (P, R, parent)
-    end_of = {}
 
     def add(j, parent):
         P, R = placed[j]
@@ -370,8 +367,6 @@ def _split(placed, splits):
                 raise ValueError(f"line {j}: a junction at its very start or end; choose other lines")
             pieces.append((P[a:at + 1], R[a:at + 1], par))
             par = len(pieces) - 1
-            for c in children:
-                end_of[c] = par
             a = at
             for c in children:
                 add(c, par)

@@ -125,13 +125,12 @@ def measure(name, vmtk=None, remesh=False):
     if vmtk:
         P, dt = run_vmtk(vmtk, ves.V, ves.F, t)
         ev, _ = axis_errors(t, P)
-        e = ev
         # VMTK's line stops where its inscribed sphere meets the open end: count the samples it spans
         from scipy.spatial import cKDTree
 
         _, j = cKDTree(t.centers).query(P[[0, -1]])
         lo, hi = sorted(j)
-        span = np.zeros(len(e), bool)
+        span = np.zeros(len(ev), bool)
         span[lo:hi + 1] = True
         row["vmtk"] = summary(ev, inner & span, kr)
         row["vmtk"]["cover"] = round(float((inner & span).sum() / inner.sum()), 3)

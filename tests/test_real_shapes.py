@@ -67,18 +67,18 @@ def test_fitted_axis_has_no_excursion_and_ends_on_the_line(fitted):
     L = t.length
     far = (gc.dense_s * gc.length > acc.EDGE * t.radii[0]) & (gc.dense_s * gc.length < gc.length - acc.EDGE * t.radii[-1])
     d = polyline_distance(gc.dense_points[far], t.centers)
-    r = np.interp(polyline_foot(gc.dense_points[far], t), t.s * L, t.radii)
+    r = np.interp(nearest_sample(t.s * L, t.centers, gc.dense_points[far]), t.s * L, t.radii)
     assert (100 * d / r).max() <= FACTOR * worst, f"{case}: axis leaves the line by {(100 * d / r).max():.3f} % r"
     ends = sorted(np.linalg.norm(gc.centers[[0, -1]][:, None] - t.centers[[0, -1]][None], axis=2).min(axis=1))
     assert ends[-1] <= 0.01 * t.radii.min()
     assert abs(gc.length - L) <= 0.005 * L
 
 
-def polyline_foot(X, t):
-    """Arc length (mm) of the nearest sample of the exact centre line to each point."""
+def nearest_sample(values, samples, X):
+    """``values`` at the sample of ``samples`` (k, 3) nearest to each point of ``X``."""
     from scipy.spatial import cKDTree
 
-    return (t.s * t.length)[cKDTree(t.centers).query(X)[1]]
+    return values[cKDTree(samples).query(X)[1]]
 
 
 @needs_real(*{c.mesh for c in rs.CASES.values()})
@@ -89,17 +89,10 @@ def test_fitted_radius_is_the_swept_radius(fitted):
     t = ves.truth
     st = t.s * t.length
     inner = (st > acc.EDGE * t.radii[0]) & (st < t.length - acc.EDGE * t.radii[-1])
-    s_fit = np.clip(polyline_foot_param(gc, t.centers[inner]), 0, 1)
+    s_fit = np.clip(nearest_sample(gc.dense_s, gc.dense_points, t.centers[inner]), 0, 1)
     rel = np.abs(gc.radius_at(s_fit) / t.radii[inner] - 1)
     bound = 0.03 if case == "arch_branch" else 0.01  # docs: the unconverged cone's radius is 2.1 % off
     assert rel.max() <= bound, f"{case}: radius off by {rel.max():.3%}"
-
-
-def polyline_foot_param(gc, X):
-    """Normalised arc length of the nearest dense axis sample to each point."""
-    from scipy.spatial import cKDTree
-
-    return gc.dense_s[cKDTree(gc.dense_points).query(X)[1]]
 
 
 @needs_real(*{c.mesh for c in rs.CASES.values()})
