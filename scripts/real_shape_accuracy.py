@@ -3,6 +3,7 @@
 Usage::
 
     python scripts/real_shape_accuracy.py [--case NAME ...] [--vmtk /tmp/peer-vmtk/bin/python] [--remesh] [--json OUT]
+    python scripts/real_shape_accuracy.py --tree [NAME ...]
 
 For each case of ``data_gen/real_shapes.py`` (real, tortuous centre lines of ``shared/data/real`` with circles
 or ellipses swept along them, exact centre line known) it fits :func:`vesselgp.fit_generalized_cylinder` and
@@ -16,6 +17,10 @@ measures, away from the open ends (``EDGE`` radii of each end cut from it):
 With ``--vmtk`` the same is measured for VMTK 1.5.2's centre line between the two end centres
 (``shared/peers/vmtk/vmtk_centerline.py``, qhull Delaunay); VMTK's line stops short of open ends, so only the
 samples within its arc are counted, and ``vmtk_cover`` says how much of the line it covers.
+
+``--tree`` measures the network trees instead (``NETWORK_TREES``: a real tree's whole VMTK network meshed by the
+synthetic tree's mesher) with :func:`vesselgp.fit_vessel_tree`: each true branch against the nearest fitted path,
+away from ``JUNCTION`` parent radii of every junction (the "Real shapes" tree table of docs/accuracy.md).
 """
 from __future__ import annotations
 
@@ -138,6 +143,22 @@ def measure(name, vmtk=None, remesh=False):
     return row
 
 
+def measure_tree(name):
+    import real_shapes as rs
+
+    import vesselgp
+
+    net = rs.network_tree(name)
+    t0 = time.perf_counter()
+    tree = vesselgp.fit_vessel_tree(net.V, net.F)
+    dt = time.perf_counter() - t0
+    got = [e[m] for e, m in tree_axis_errors(net.truth, tree) if m.any()]
+    e = np.concatenate(got)
+    return {"tree": name, "vertices": len(net.V), "branches": len(tree.branches), "ends": len(tree.ends),
+            "mean": round(float(e.mean()), 4), "worst": round(float(e.max()), 3), "over5": int((e > 5).sum()),
+            "fit_s": round(dt, 2)}
+
+
 def main(argv=None):
     import real_shapes as rs
 
@@ -146,8 +167,17 @@ def main(argv=None):
     ap.add_argument("--vmtk", help="python of a VMTK environment (shared/peers/vmtk)")
     ap.add_argument("--remesh", action="store_true")
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--tree", nargs="*", choices=sorted(rs.NETWORK_TREES), help="measure these network trees "
+                    "(all when none is named) instead of the single tubes")
     a = ap.parse_args(argv)
     rows = []
+    if a.tree is not None:
+        for name in a.tree or list(rs.NETWORK_TREES):
+            rows.append(measure_tree(name))
+            print(json.dumps(rows[-1]), flush=True)
+        if a.json:
+            a.json.write_text(json.dumps(rows, indent=1))
+        return 0
     for name in a.case or list(rs.CASES):
         row = measure(name, a.vmtk, a.remesh)
         rows.append(row)

@@ -698,13 +698,8 @@ def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit"
                 st = replace(st, converged=states[b].converged, count=states[b].count, step=states[b].step)
             states[b] = st
         windows = None
-        # a converged problem pinned at both ends gets one more circle fit with data_lambda's weight; a
-        # tree branch (a free junction side) does not yet: polished, the renal-iliac network tree's branches
-        # came within 0.04 % r of their true lines (0.37 without), but a sharper turn near the trunk's
-        # junction side then became a medial zone where the bend-limit test expects a refusal, and the tree
-        # tables are to be measured again (issue #48's note)
-        polishing = {b for b in running if states[b].converged and not states[b].singular and b not in polished
-                     and all(problems[b].pin)}
+        # a converged problem gets one more circle fit with data_lambda's weight (issue #48)
+        polishing = {b for b in running if states[b].converged and not states[b].singular and b not in polished}
         running = [b for b in running if b in polishing or not (states[b].converged or states[b].singular)]
         if not running:
             return states
