@@ -54,21 +54,21 @@ MUTATIONS = {
     # --- 19 caught by the suite before the #46 tests, all 30 after (closing note of #46)
     # axis.csv: the "arclength" column runs from the ends[1] end (mm from the wrong end) while "s" runs from ends[0].
     'rv_axis_csv_arclength_reversed': (
-        'vesselgp/pipeline.py',
+        'vesselgp/commands/fit.py',
         'cols = {"s": gc.s, "arclength": gc.s * gc.length}',
         'cols = {"s": gc.s, "arclength": (1.0 - gc.s) * gc.length}',
         ['tests/test_output_fields.py::test_axis_csv_columns_are_the_true_axis_in_mm'],
     ),
     # twist.csv: "cumulative_deg" of segment j is the cumulative twist at its start (landmark j), not at its end.
     'rv_twist_csv_cumulative_at_start': (
-        'vesselgp/pipeline.py',
+        'vesselgp/commands/twist.py',
         '"cumulative_deg": d["cumulative_twist_deg"][1:]})',
         '"cumulative_deg": d["cumulative_twist_deg"][:-1]})',
         ['tests/test_output_fields.py::test_twist_csv_rows_are_the_true_segments'],
     ),
     # result.json placement.moved_mm: the end's old position undone with R instead of R^T: wrong distance moved.
     'rv_placement_moved_mm_transposed': (
-        'vesselgp/pipeline.py',
+        'vesselgp/commands/join.py',
         '"moved_mm": float(np.linalg.norm(c - R.T @ (c - t)))}',
         '"moved_mm": float(np.linalg.norm(c - R @ (c - t)))}',
         ['tests/test_join_vessels.py::test_cli_place'],
@@ -365,13 +365,13 @@ MUTATIONS = {
         ["tests/test_sacs.py"],
     ),
     "fit_lam_not_passed_by_the_cli": (
-        "vesselgp/pipeline.py",
+        "vesselgp/commands/fit.py",
         "    gc = fit_generalized_cylinder(pm, ends=ends, n_nodes=n_nodes, lam=lam)",
         "    gc = fit_generalized_cylinder(pm, ends=ends, n_nodes=n_nodes)",
         ["tests/test_cli_errors.py"],
     ),
     "units_given_not_checked_above": (
-        "vesselgp/pipeline.py",
+        "vesselgp/commands/output.py",
         "    if not tol.UNITS_MM_MIN_DIAG <= sc.bbox_diagonal <= tol.UNITS_MM_MAX_DIAG:",
         "    if not tol.UNITS_MM_MIN_DIAG <= sc.bbox_diagonal <= 1.1 * tol.UNITS_MM_MAX_DIAG:",
         ["tests/test_cli_units.py"],
@@ -714,13 +714,13 @@ MUTATIONS = {
         ["tests/test_formats.py"],
     ),
     "twist_report_twist_of_the_wrong_landmark": (
-        "vesselgp/pipeline.py",
+        "vesselgp/commands/twist.py",
         "    twist[on] = np.interp(main.vertex_s[on] * r.length_a, r.s_a, cumulative_deg)",
         "    twist[on] = np.interp(main.vertex_s[on] * r.length_a, r.s_a, -np.asarray(cumulative_deg))",
         ["tests/test_twist.py"],
     ),
     "placement_turn_misreported": (
-        "vesselgp/pipeline.py",
+        "vesselgp/commands/join.py",
         "    turned = math.degrees(Rotation.from_matrix(R).magnitude())",
         "    turned = math.degrees(Rotation.from_matrix(R.T @ R).magnitude())",
         ["tests/test_join_vessels.py::test_cli_place"],
@@ -1156,7 +1156,7 @@ MUTATIONS = {
         ["tests/test_cli_errors.py::test_a_refused_run_leaves_no_empty_folder_but_keeps_the_users"],
     ),
     "refused_run_removes_the_users_folder": (
-        "vesselgp/pipeline.py",
+        "vesselgp/commands/output.py",
         """        missing = [d for d in (folder, *folder.parents) if not d.exists()][::-1]""",
         """        missing = [folder]""",
         ["tests/test_cli_errors.py::test_a_refused_run_leaves_no_empty_folder_but_keeps_the_users"],
@@ -1168,7 +1168,7 @@ MUTATIONS = {
         ["tests/test_cli_errors.py::test_ends_can_list_a_mesh_twice"],
     ),
     "listing_rerun_replaces_any_file": (
-        "vesselgp/pipeline.py",
+        "vesselgp/commands/output.py",
         """    return isinstance(d, dict) and d.get("command") == rerun[1]""",
         """    return True""",
         ["tests/test_cli_errors.py::test_ends_can_list_a_mesh_twice"],
@@ -1282,13 +1282,13 @@ MUTATIONS = {
         ["tests/test_topology.py"],
     ),
     "join_twist_not_toward_the_joined_end": (
-        "vesselgp/pipeline.py",
+        "vesselgp/commands/join.py",
         "    return 1.0 if np.mean(s[problem.moving]) >= np.mean(s[problem.fixed]) else -1.0",
         "    return 1.0",
         ["tests/test_figures.py::test_join_twist_colour_agrees_with_its_title_and_the_turn"],
     ),
     "torsion_render_colour_sign": (
-        "vesselgp/pipeline.py",
+        "vesselgp/commands/torsion.py",
         "    al = np.degrees(prof.vertex_alpha)",
         "    al = -np.degrees(prof.vertex_alpha)",
         ["tests/test_figures.py::test_a_twist_render_is_red_where_its_title_says_plus"],

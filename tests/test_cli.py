@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from vesselgp.cli import main
-from vesselgp.pipeline import REPORT_FIELDS
+from vesselgp.commands.join import REPORT_FIELDS
 from vesselgp.io import read_mesh
 
 from test_viz import assert_png

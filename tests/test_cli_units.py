@@ -19,7 +19,7 @@ from vesselgp.cli import main
 from vesselgp.errors import OptionError
 from vesselgp.io import read_mesh, write_mesh
 from vesselgp.mesh.scale import units_factor
-from vesselgp.pipeline import read_mesh_in
+from vesselgp.commands.output import read_mesh_in
 
 from _data import REAL
 from test_cli import assert_error, run
@@ -274,7 +274,7 @@ def test_bad_option_values_exit_2_with_one_line(vessel, tmp_path, capsys, args, 
 
 
 # --------------------------------------------------------------------------- #
-# the pipeline and library helpers
+# the commands' shared helpers (vesselgp.commands.output) and library helpers
 # --------------------------------------------------------------------------- #
 def test_read_mesh_in_and_units_factor(vessel):
     V0, F0 = read_mesh(vessel["mm"])

@@ -13,7 +13,8 @@ from matplotlib.image import imread
 from matplotlib.text import Text
 
 import vesselgp
-from vesselgp import pipeline, viz
+from vesselgp import viz
+from vesselgp.commands.join import summary_table, write_join_outputs
 from vesselgp.cli import main
 from vesselgp.synthetic import deform_synthetic, paper_case, synthetic_vessel, twist_pair
 from vesselgp.torsion import measure_torsion
@@ -208,8 +209,8 @@ def case2_join():
 @pytest.mark.parametrize("large", [90.0, -90.0])
 def test_join_twist_colour_agrees_with_its_title_and_the_turn(tmp_path, saved, case2_join, large):
     problem, res = case2_join
-    pipeline.write_join_outputs(tmp_path, problem, res, {"setup_time_s": 0.0, "time_s": 0.0}, name="case 2",
-                                n_curve=3, large_deg=large)
+    write_join_outputs(tmp_path, problem, res, {"setup_time_s": 0.0, "time_s": 0.0}, name="case 2",
+                       n_curve=3, large_deg=large)
     fig = saved["large_torsion.png"]
     title = title_of(fig)
     there = signed_after("twist there", title)
@@ -285,6 +286,6 @@ def test_two_long_thin_scans_still_make_a_readable_picture(tmp_path, saved):
 def test_the_summary_table_keeps_whole_case_names():
     rows = [{"name": n, "optimum_angle_deg": 1.0, "energy": 0.5, "n_evals": 9, "setup_time_s": 0.1, "time_s": 0.2}
             for n in ("xra_coronary_single_branch_open", "case 1")]
-    lines = pipeline.summary_table(rows).splitlines()
+    lines = summary_table(rows).splitlines()
     assert lines[1].startswith("xra_coronary_single_branch_open ")
     assert len({len(ln) for ln in lines}) == 1  # columns still aligned

@@ -1,6 +1,6 @@
 """The page `vesselgp join` writes and the demo's report.json, against exact geometry (issue #46).
 
-* report.html of `vesselgp join` (pipeline.run_join -> html_report.write_report_html): the plotly data embedded
+* report.html of `vesselgp join` (commands.join.run_join -> html_report.write_report_html): the plotly data embedded
   in the page is decoded as a browser reads it (``test_reports_truth.plotly_traces``) and each trace is checked
   against the construction: a straight tube along +z tapered from radius 2 (z = 0, the moving end) to 1.2
   (z = 24, held over its last tenth), its moving end sent to a target turned by +50 degrees about the outward
@@ -8,7 +8,7 @@
   around, not 16) lies. The least-torsion optimum undoes the turn: the tube pulled straight, no twist; the large
   torsion state (--large 70, not the default 90) turns the joined end 70 degrees further, a uniform twist over the
   free length, and shares the colour scale. The Numbers table is checked in test_bulges_truth.py.
-* report.json of the demo (pipeline.run_demo) for paper case 1 at resolution 0.3 (14 points around, where 0.25
+* report.json of the demo (commands.demo.run_demo) for paper case 1 at resolution 0.3 (14 points around, where 0.25
   and 1 give 12 and 48) with a pre-rotation of 0.3 rad, every field against ``paper_case``'s truth: its docstring
   says the target normal is the other vessel's material U turned by +pre_rotation about the target tangent and
   that the moving anchor goes onto it at angle 0, and ANGLE_REFERENCE that a positive angle turns the end
@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 import vesselgp as vg
-from vesselgp import pipeline
+from vesselgp.commands import demo as demo_command, join as join_command
 from vesselgp import tolerances as tol
 from vesselgp.cli import main
 from vesselgp.synthetic import named_curve, paper_case, synthetic_vessel
@@ -97,7 +97,8 @@ def join_page(tmp_path_factory):
     out = d / "out"
     with pytest.MonkeyPatch.context() as mp:
         for name in ("render_mesh", "render_panels", "plot_energy_curve", "plot_torsion_profile"):
-            mp.setattr(pipeline, name, lambda *a, **k: None)  # the page, not its PNGs (seconds each)
+            if hasattr(join_command, name):
+                mp.setattr(join_command, name, lambda *a, **k: None)  # the page, not its PNGs (seconds each)
         args = ["join", d / "tube.ply", "--fixed", f"@{d / 'held.txt'}", "--moving", f"@{d / 'moving.txt'}",
                 "--target-origin", *vec(JOINED), "--target-tangent", *vec(OUT_T), "--target-normal", *vec(N),
                 "--moving-normal", *vec(M), "--other", d / "other.ply", "--n-curve", 3, "--large", LARGE,
@@ -205,7 +206,7 @@ def demo(tmp_path_factory):
     and pre-rotation."""
     d = tmp_path_factory.mktemp("demo")
     t0 = time.perf_counter()
-    rep = pipeline.run_demo(d, resolution=RES, n_curve=N_CURVE, cases=(1,), pre_rotation=PRE, render=False)
+    rep = demo_command.run_demo(d, resolution=RES, n_curve=N_CURVE, cases=(1,), pre_rotation=PRE, render=False)
     wall = time.perf_counter() - t0
     disk = json.loads((d / "report.json").read_text())
     case = paper_case(1, resolution=RES, pre_rotation=PRE)
@@ -424,7 +425,7 @@ def test_demo_fields_are_keys_every_case_has(demo):
 
 
 def test_demo_fields_describe_every_key_a_case_has(demo):
-    """Truth: ``fields`` lists exactly the keys each case has (pipeline.REPORT_FIELDS: 'Fields of each case')."""
+    """Truth: ``fields`` lists exactly the keys each case has (commands.join.REPORT_FIELDS: 'Fields of each case')."""
     rep = demo["disk"]
     for c in rep["cases"]:
         assert set(c) == set(rep["fields"]), sorted(set(c) ^ set(rep["fields"]))

@@ -26,7 +26,7 @@ number read:
 
 Field inventory (field -> the test that checks its value against the truth).
 
-ends.json (vesselgp ends; pipeline.run_ends)
+ends.json (vesselgp ends; commands.clean.run_ends)
     command, input, units, input_units, to_mm, bbox_diagonal
         ........................... test_ends_bookkeeping_is_the_input_in_millimetres (cm, --scale, um)
     n_ends, ends[].index, ends[].kind, ends[].radius
@@ -38,7 +38,7 @@ ends.json (vesselgp ends; pipeline.run_ends)
     not_caps[].radius/center/direction/n_faces/reason
         ........................... test_a_partly_walled_flat_top_is_listed_as_not_a_cap_with_its_rim_share
                                     (none elsewhere: test_only_the_partly_walled_top_is_listed_as_not_a_cap)
-clean_report.json (vesselgp clean; pipeline.run_clean, mesh.clean.CleanReport)
+clean_report.json (vesselgp clean; commands.clean.run_clean, mesh.clean.CleanReport)
     unreferenced_vertices_removed, duplicate_vertices_merged, duplicate_faces_removed, zero_area_faces_removed,
     non_manifold_edges_repaired, non_manifold_faces_removed, non_manifold_vertices_split, components_found,
     components_removed, faces_flipped, smoothing_iterations

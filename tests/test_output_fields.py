@@ -22,7 +22,7 @@ a diameter, an index shift or a unit left unconverted changes the number read:
 Field inventory (field -> the test that checks its value against geometry). Fields this file checks are named by
 test; "elsewhere" names another file.
 
-axis.json (vesselgp fit; pipeline.gc_to_dict + run_fit) and axis.csv
+axis.json (vesselgp fit; commands.fit.gc_to_dict + run_fit) and axis.csv
     units, input_units, to_mm ..... test_axis_bookkeeping_is_the_input_in_millimetres (cm); also test_cli_units.py (m)
     length ........................ test_axis_length_and_mean_radius_are_the_true_arc_length_and_weighted_radius
     mean_radius ................... test_axis_length_and_mean_radius_are_the_true_arc_length_and_weighted_radius
@@ -39,7 +39,7 @@ axis.json (vesselgp fit; pipeline.gc_to_dict + run_fit) and axis.csv
     bulges ........................ elsewhere: test_cli_tree.py::test_fit_reports_a_sac, test_bulges_truth.py
     bbox_diagonal, input, time_s .. test_axis_bookkeeping_is_the_input_in_millimetres
     axis.csv s, arclength, x y z, radius, Tx..Vz ... test_axis_csv_columns_are_the_true_axis_in_mm
-tree.json (vesselgp fit of a tree; pipeline.tree_to_dict + run_fit_tree)
+tree.json (vesselgp fit of a tree; commands.fit.tree_to_dict + run_fit_tree)
     units, input_units, to_mm, bbox_diagonal, input, time_s, n_vertices, converged, checks.*
         ........................... test_tree_bookkeeping_counts_and_checks
     n_ends, ends[].index/kind/radius/center/direction ... test_tree_ends_are_the_true_ends_pointing_out_of_the_tree
@@ -54,7 +54,7 @@ tree.json (vesselgp fit of a tree; pipeline.tree_to_dict + run_fit_tree)
         ........................... test_tree_paths_run_root_to_tip_with_the_true_length_and_radii
     bulges ........................ test_tree_bookkeeping_counts_and_checks (none on a smooth tree);
                                     test_bulges_truth.py
-profile.json / profile.csv (vesselgp torsion; pipeline.profile_to_dict + run_torsion)
+profile.json / profile.csv (vesselgp torsion; commands.torsion.profile_to_dict + run_torsion)
     alpha_deg ..................... test_profile_alpha_is_the_imposed_non_linear_twist_from_the_first_end
     dalpha_deg .................... test_profile_dalpha_is_the_twist_rate_per_normalised_length
     energy, total_twist_deg, twist_per_length_deg, length
@@ -62,7 +62,7 @@ profile.json / profile.csv (vesselgp torsion; pipeline.profile_to_dict + run_tor
     curvature, frenet_torsion ..... test_profile_curvature_and_frenet_torsion_are_the_deformed_left_handed_helix
     s, command, rest, deformed, units, input_units, to_mm, time_s ... test_profile_bookkeeping_names_rest_and_deformed
     profile.csv (every column) .... test_profile_csv_holds_the_profile_arrays
-result.json (vesselgp join; pipeline.write_join_outputs + cli._join_summary)
+result.json (vesselgp join; commands.join.write_join_outputs + cli._join_summary)
     optimum_angle_deg, zero_twist_angle_deg, roll_deg, energy, total_twist_deg
         ........................... test_join_optimum_undoes_the_turn_of_the_target
     energy_curve, evaluations, n_evals ... test_join_energy_curve_and_evaluations_are_a_uniform_twist_d_squared
@@ -75,7 +75,7 @@ result.json (vesselgp join; pipeline.write_join_outputs + cli._join_summary)
     held_vertices, joined_n_vertices, onto (join --onto)
         ........................... test_join_onto_holds_a_tenth_of_the_length_and_joins_both_meshes
     placement (join --place) ...... elsewhere: test_bulges_truth.py (None without --place: test_join_counts_...)
-twist.json / twist.csv (vesselgp twist; pipeline.twist_to_dict + write_twist)
+twist.json / twist.csv (vesselgp twist; commands.twist.twist_to_dict + write_twist)
     n_landmarks, s_a, s_b, landmarks_a, landmarks_b, unmatched_s_a, unmatched_s_b
         ........................... test_twist_landmarks_are_the_matched_side_branches_in_order
     ends_a, ends_b ................ test_twist_ends_are_each_scans_root_and_main_tip

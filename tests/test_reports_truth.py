@@ -26,9 +26,12 @@ import pytest
 from scipy.spatial import cKDTree
 
 import vesselgp as vg
-from vesselgp import batch, pipeline
+from vesselgp import batch
 from vesselgp import tolerances as tol
-from vesselgp.pipeline import OutputFolder, run_fit, twist_scans, write_twist
+from vesselgp.commands import fit as fit_command, torsion as torsion_command, twist as twist_command
+from vesselgp.commands.fit import run_fit
+from vesselgp.commands.output import OutputFolder
+from vesselgp.commands.twist import twist_scans, write_twist
 from vesselgp.prepared import PreparedMesh
 from vesselgp.synthetic import deform_synthetic, synthetic_vessel, twist_pair
 
@@ -38,7 +41,9 @@ from _reference import arc_length
 def _no_png(mp):
     """The PNG renders are not what these tests read (seconds each): drawn as nothing."""
     for name in ("render_mesh", "render_panels", "plot_cumulative_twist"):
-        mp.setattr(pipeline, name, lambda *a, **k: None)
+        for command in (fit_command, torsion_command, twist_command):
+            if hasattr(command, name):
+                mp.setattr(command, name, lambda *a, **k: None)
 
 
 def _decode(x):
@@ -515,7 +520,7 @@ def test_torsion_report_shading_is_the_imposed_twist_in_degrees_from_the_first_e
     page's mesh is the deformed vessel, each vertex shaded by alpha in degrees, 0 at the end where the drawn axis
     starts: alpha(s) - alpha(s0) at its exact s (1 degree; radians, a reversed end or sign are off by tens); the
     colour range is +-max|alpha|, symmetric about 0 (white), as the caption says."""
-    from vesselgp.pipeline import run_torsion
+    from vesselgp.commands.torsion import run_torsion
 
     phi = np.radians(70.0)
     v = synthetic_vessel("straight", radius=lambda s: 2.0 - s, n_around=16, remesh=False)
@@ -523,7 +528,7 @@ def test_torsion_report_shading_is_the_imposed_twist_in_degrees_from_the_first_e
     vg.write_mesh(tmp_path / "def.ply", deform_synthetic(v, twist=lambda s: phi * np.asarray(s) ** 2), v.F)
     with pytest.MonkeyPatch.context() as mp:
         _no_png(mp)
-        mp.setattr(pipeline, "plot_torsion_profile", lambda *a, **k: None)
+        mp.setattr(torsion_command, "plot_torsion_profile", lambda *a, **k: None)
         run_torsion(tmp_path / "rest.ply", tmp_path / "def.ply", OutputFolder(tmp_path / "out"))
     traces = plotly_traces((tmp_path / "out" / "report.html").read_text())
     X, value, m = _mesh_trace(traces)

@@ -160,7 +160,7 @@ def test_cli_twist(tmp_path, pairs, capsys):
                                                        "twist_scans.png"]
     # the report's shading: scan A's vertices past the last side branch carry the whole imposed twist, those
     # before the first none (the truth's, not the run's numbers)
-    from vesselgp.pipeline import scan_twist_field
+    from vesselgp.commands.twist import scan_twist_field
 
     field = scan_twist_field(r, p.a.V, np.degrees(np.r_[0.0, np.cumsum(r.segment_twist)]))
     root_end = p.a.truth.ends[0].center  # the main vessel's root; its tip is the end farthest from it

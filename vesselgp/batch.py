@@ -239,7 +239,7 @@ def _path_metrics(gc):
 def _mesh_job(path, ends, units):
     from .fit import fit_generalized_cylinder
     from .mesh import vessel_ends
-    from .pipeline import read_mesh_in
+    from .commands.output import read_mesh_in
     from .tree import fit_vessel_tree
 
     V, F, _ = read_mesh_in(path, units)
@@ -260,7 +260,7 @@ def _mesh_job(path, ends, units):
 
 
 def _torsion_job(rest, deformed, ends, units):
-    from .pipeline import read_mesh_in
+    from .commands.output import read_mesh_in
     from .torsion import measure_torsion
 
     V0, F0, _ = read_mesh_in(rest, units)
@@ -275,7 +275,8 @@ def _torsion_job(rest, deformed, ends, units):
 
 
 def _twist_job(a, b, ends, units):
-    from .pipeline import read_mesh_in, twist_to_dict
+    from .commands.output import read_mesh_in
+    from .commands.twist import twist_to_dict
     from .twist import twist_between
 
     Va, Fa, _ = read_mesh_in(a, units)

@@ -24,13 +24,18 @@ from pathlib import Path
 
 import numpy as np
 
-from . import pipeline
 from . import tolerances as tol
+from .commands.clean import ends_table, run_clean, run_ends
+from .commands.demo import run_demo, run_generate, run_paper_cases
+from .commands.fit import run_fit
+from .commands.join import JOIN_FILES, join_inputs, join_vessels_inputs, run_join, run_join_vessels, summary_table
+from .commands.output import OutputFolder, library_scale_warnings_replaced
+from .commands.torsion import run_torsion
+from .commands.twist import TWIST_FILES, twist_scans, twist_table, write_twist
 from .deform import METHODS, Frame
 from .errors import VesselError
 from .io import read_json, to_json, write_json
 from .mesh.scale import UNITS_TO_MM
-from .pipeline import OutputFolder
 
 log = logging.getLogger("vesselgp.cli")
 
@@ -187,9 +192,9 @@ def _output(args, inputs, **kwargs):
 
 def cmd_fit(args):
     out = _output(args, [args.mesh])
-    gc, d = pipeline.run_fit(args.mesh, out, ends=args.ends, root=args.root, n_nodes=args.nodes, lam=args.lam,
-                             axis_format=args.axis_format, shade=args.shade, units=args.units, scale=args.scale,
-                             render=not args.no_png)
+    gc, d = run_fit(args.mesh, out, ends=args.ends, root=args.root, n_nodes=args.nodes, lam=args.lam,
+                    axis_format=args.axis_format, shade=args.shade, units=args.units, scale=args.scale,
+                    render=not args.no_png)
     if "paths" in d:  # a branching mesh, fitted as a tree
         summary = {"command": "fit", "tree": True, **{k: d[k] for k in ("n_ends", "root", "root_chosen", "converged",
                                                                         "time_s", "checks", *_UNIT_KEYS)},
@@ -259,8 +264,8 @@ def _checks_text(c):
 
 def cmd_torsion(args):
     out = _output(args, [args.rest, args.deformed])
-    prof, d = pipeline.run_torsion(args.rest, args.deformed, out, smoothing=args.smoothing, ends=args.ends,
-                                   units=args.units, scale=args.scale, render=not args.no_png)
+    prof, d = run_torsion(args.rest, args.deformed, out, smoothing=args.smoothing, ends=args.ends,
+                          units=args.units, scale=args.scale, render=not args.no_png)
     summary = {"command": "torsion", **{k: d[k] for k in ("energy", "total_twist_deg", "twist_per_length_deg",
                                                           "length", "time_s", *_UNIT_KEYS)}, "files": out.files}
     _emit(args, summary, f"torsion energy {prof.energy:.4g} (Eq. 8), total twist "
@@ -286,7 +291,7 @@ def _join_summary(args, r, inp, out):
     summary = {k: r[k] for k in ("optimum_angle_deg", "roll_deg", "energy", "total_twist_deg", "n_evals", "status",
                                  "grid_scan", "axial_stretch", "max_edge_stretch", "setup_time_s", "time_s")}
     summary.update(command="join", large_torsion=r["large_torsion"], **inp["units"], files=out.files)
-    text = (pipeline.summary_table([r]) + f"\nroll beyond the twist-free placement {r['roll_deg']:+.2f} deg, "
+    text = (summary_table([r]) + f"\nroll beyond the twist-free placement {r['roll_deg']:+.2f} deg, "
             f"axial stretch {r['axial_stretch']:.3f}, largest edge stretch {r['max_edge_stretch']:.3f}\n"
             "angle 0: the moving anchor lies on the target normal (result.json: angle_reference)\n"
             + _files_text(out))
@@ -306,7 +311,7 @@ def cmd_join(args):
         if missing:
             raise VesselError(f"give --case, or --end I --onto OTHER --other-end J, or all of {', '.join(need)} "
                               f"(missing {', '.join(missing)})")
-    inp = pipeline.join_inputs(
+    inp = join_inputs(
         args.vessel, case=args.case,
         fixed=None if args.fixed is None else _ids(args.fixed, "fixed"),
         moving=None if args.moving is None else _ids(args.moving, "moving"),
@@ -315,12 +320,12 @@ def cmd_join(args):
         other=args.other, other_end=None if args.other_end is None else _ids(args.other_end, "other-end"),
         units=args.units, scale=args.scale)
     out = _output(args, inp["inputs"])
-    out.check(pipeline.JOIN_FILES)
+    out.check(JOIN_FILES)
     mn = inp["moving_normal"] if args.moving_normal is None else args.moving_normal
-    r = pipeline.run_join(out.dir, inp["V"], inp["F"], inp["fixed"], inp["moving"], inp["target"],
-                          other=inp["other"], name=Path(args.vessel).stem, n_curve=args.n_curve,
-                          curve_range_deg=args.range, large_deg=args.large, method=args.method,
-                          progress=_progress(args), render=not args.no_png, moving_normal=mn)
+    r = run_join(out.dir, inp["V"], inp["F"], inp["fixed"], inp["moving"], inp["target"],
+                 other=inp["other"], name=Path(args.vessel).stem, n_curve=args.n_curve,
+                 curve_range_deg=args.range, large_deg=args.large, method=args.method,
+                 progress=_progress(args), render=not args.no_png, moving_normal=mn)
     return _join_summary(args, r, inp, out)
 
 
@@ -337,29 +342,29 @@ def _cmd_join_vessels(args):
         other_end = int(args.other_end)
     except ValueError:
         raise VesselError(f"--other-end with --onto is an end index like 0, got {args.other_end!r}") from None
-    inp = pipeline.join_vessels_inputs(
+    inp = join_vessels_inputs(
         args.vessel, args.onto, args.end, other_end, hold=None if args.hold is None else _hold(args.hold),
         method=args.method, max_stretch=args.max_stretch, moving_normal=args.moving_normal,
         target_normal=args.target_normal, units=args.units, scale=args.scale, place=args.place)
     out = _output(args, inp["inputs"])
-    out.check(pipeline.JOIN_FILES)
-    r = pipeline.run_join_vessels(out.dir, inp["join"], name=Path(args.vessel).stem, n_curve=args.n_curve,
-                                  curve_range_deg=args.range, large_deg=args.large, progress=_progress(args),
-                                  render=not args.no_png)
+    out.check(JOIN_FILES)
+    r = run_join_vessels(out.dir, inp["join"], name=Path(args.vessel).stem, n_curve=args.n_curve,
+                         curve_range_deg=args.range, large_deg=args.large, progress=_progress(args),
+                         render=not args.no_png)
     r["onto"] = str(args.onto)
     return _join_summary(args, r, inp, out)
 
 
 def cmd_twist(args):
-    tw = pipeline.twist_scans(args.scan_a, args.scan_b, ends_a=args.ends_a, ends_b=args.ends_b, units=args.units,
-                              scale=args.scale)
+    tw = twist_scans(args.scan_a, args.scan_b, ends_a=args.ends_a, ends_b=args.ends_b, units=args.units,
+                     scale=args.scale)
     out = _output(args, tw["inputs"])
-    out.check(pipeline.TWIST_FILES)
-    d = pipeline.write_twist(out, tw, render=not args.no_png)
+    out.check(TWIST_FILES)
+    d = write_twist(out, tw, render=not args.no_png)
     summary = {k: d[k] for k in ("command", "n_landmarks", "ends_a", "ends_b", "segment_twist_deg", "stretch",
                                  "twist_per_length_deg_per_cm", "total_twist_deg", "time_s", *_UNIT_KEYS)}
     summary["files"] = out.files
-    _emit(args, summary, pipeline.twist_table(d) + "\n" + _files_text(out))
+    _emit(args, summary, twist_table(d) + "\n" + _files_text(out))
     return 0
 
 
@@ -382,31 +387,31 @@ def cmd_batch(args):
 
 def cmd_clean(args):
     out = _output(args, [args.mesh])
-    rep, d = pipeline.run_clean(args.mesh, out, fmt=args.format, smooth=args.smooth, units=args.units,
-                                scale=args.scale)
+    rep, d = run_clean(args.mesh, out, fmt=args.format, smooth=args.smooth, units=args.units,
+                       scale=args.scale)
     _emit(args, {"command": "clean", **d, "files": out.files}, rep.summary() + "\n" + _files_text(out))
     return 0
 
 
 def cmd_ends(args):
     out = _output(args, [args.mesh], rerun=("ends.json", "ends"))  # a listing: a re-run replaces its own
-    d = pipeline.run_ends(args.mesh, out, units=args.units, scale=args.scale)
+    d = run_ends(args.mesh, out, units=args.units, scale=args.scale)
     _emit(args, {**d, "files": out.files},
           f"{d['n_ends']} ends of {args.mesh} ({_lengths_in(d)}; --ends I J takes these indices)\n"
-          + pipeline.ends_table(d) + "\n" + _files_text(out))
+          + ends_table(d) + "\n" + _files_text(out))
     return 0
 
 
 def cmd_generate(args):
     out = _output(args, [])
     if args.paper_cases:
-        info = pipeline.run_paper_cases(out, resolution=args.resolution, seed=args.seed, noise=args.noise,
-                                        pre_rotation=np.radians(args.pre_rotation))
+        info = run_paper_cases(out, resolution=args.resolution, seed=args.seed, noise=args.noise,
+                               pre_rotation=np.radians(args.pre_rotation))
         text = "\n".join(f"case {i['case']} ({i['name']}): {i['n_vertices']} + {i['other_n_vertices']} vertices"
                          for i in info)
         _emit(args, {"command": "generate", "cases": info, "files": out.files}, text + "\n" + _files_text(out))
         return 0
-    summary = pipeline.run_generate(
+    summary = run_generate(
         out, args.curve, radius=args.radius, twist_deg=args.twist, ends=args.ends, n_around=args.n_around,
         remesh=not args.no_remesh, noise=args.noise, seed=args.seed, ellipticity=args.ellipticity,
         deformed_curve=args.deformed_curve, deformed_twist_deg=args.deformed_twist, fmt=args.format)
@@ -419,8 +424,8 @@ def cmd_generate(args):
 def cmd_demo(args):
     out = _output(args, [])
     t0 = time.perf_counter()
-    rep = pipeline.run_demo(out.dir, resolution=args.resolution, n_curve=args.n_curve, progress=_progress(args),
-                            render=not args.no_png, pre_rotation=np.radians(args.pre_rotation))
+    rep = run_demo(out.dir, resolution=args.resolution, n_curve=args.n_curve, progress=_progress(args),
+                   render=not args.no_png, pre_rotation=np.radians(args.pre_rotation))
     dt = time.perf_counter() - t0
     files = [str(out.dir / "report.json")] + [str(out.dir / f) for c in rep["cases"] for f in c["files"].values()]
     summary = {"command": "demo", "output": str(out.dir), "total_time_s": dt,
@@ -428,7 +433,7 @@ def cmd_demo(args):
                                             "setup_time_s", "time_s")} for c in rep["cases"]],
                "files": files}
     _emit(args, summary, "vesselgp demo: the paper's two joining cases (Section 3) on generated vessels\n"
-                         + pipeline.summary_table(rep["cases"])
+                         + summary_table(rep["cases"])
                          + f"\ntotal {dt:.1f} s; figures, meshes and report.json in {out.dir}/"
                          + ("" if args.no_png else f"; open {out.dir}/case2/report.html in a browser"))
     return 0
@@ -437,7 +442,7 @@ def cmd_demo(args):
 # ----------------------------------------------------------------------------- parser
 
 
-#: Report fields of the mesh's units (pipeline.read_mesh_in), copied into the JSON summaries.
+#: Report fields of the mesh's units (commands.output.read_mesh_in), copied into the JSON summaries.
 _UNIT_KEYS = ("units", "input_units", "to_mm")
 
 
@@ -778,7 +783,7 @@ def main(argv=None):
         h.setLevel(level)
     done = False
     try:
-        with pipeline.library_scale_warnings_replaced():
+        with library_scale_warnings_replaced():
             code = int(args.func(args) or 0)
         done = True
         return code

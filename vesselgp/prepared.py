@@ -28,6 +28,7 @@ from .mesh import MeshTopology, mesh_topology
 from .mesh.ends import found_ends
 from .mesh._geometry import voronoi_areas
 from .mesh.orient import orient_faces
+from .mesh.seams import refuse_seams
 
 log = logging.getLogger(__name__)
 
@@ -202,12 +203,13 @@ def checked_mesh(V, F, topology=None):
     Raises
     ------
     InvalidMeshError
-        Unreferenced vertices, several connected components, or vertices used only
-        by zero-area faces.
+        Unreferenced vertices, several connected components (pieces that touch along open
+        seams of duplicate vertices are named so: :func:`vesselgp.mesh.seams.open_seams`), or
+        vertices used only by zero-area faces.
     """
     _check_used(V, F)
     topo = mesh_topology(F, len(V)) if topology is None else topology
-    _check_connected(topo)
+    _check_connected(V, topo)
     return CheckedMesh(topo, *_nondegenerate_faces(V, F))
 
 
@@ -220,10 +222,15 @@ def _check_used(V, F):
         )
 
 
-def _check_connected(topo):
-    """Raise :class:`InvalidMeshError` when the mesh has several connected pieces."""
+def _check_connected(V, topo):
+    """Raise :class:`InvalidMeshError` when the mesh has several connected pieces.
+
+    Pieces that touch along open seams of duplicate vertices get the seams' message
+    (:func:`vesselgp.mesh.seams.refuse_seams`: merge them), genuinely separate ones this one.
+    """
     ncomp = topo.vertex_components[0]
     if ncomp > 1:
+        refuse_seams(V, topo)
         raise InvalidMeshError(
             f"mesh has {ncomp} connected components; run vesselgp.clean_mesh (keeps the largest) "
             "or fit each vessel separately"

@@ -312,7 +312,7 @@ JOIN_MAX_BEND = 1.0
 #: A rounded tip is opened by removing the vertices beyond its centre plane within this many end radii.
 OPEN_DOME_REACH = 2.0
 
-# --- figures, demo and command line (vesselgp.viz, vesselgp.pipeline, vesselgp.cli) ---
+# --- figures, demo and command line (vesselgp.viz, vesselgp.commands, vesselgp.cli) ---
 #: Smallest half-range of the symmetric colour scale of a signed quantity, in
 #: the quantity's units (degrees in every figure): an untwisted vessel is not
 #: coloured by round-off.
@@ -369,6 +369,11 @@ ENDS_ROUNDED_REGION = 0.5
 ENDS_HOLE_RADIUS_FRACTION = 0.5
 #: End radii closer than this (relative) are ties when ordering ends.
 ENDS_TIE_RTOL = 1e-6
+#: Two boundary vertices coincide (an open seam of duplicate vertices, vesselgp.mesh.seams) when they are
+#: within this many median edge lengths of each other: exact copies, and copies a float32 file (STL, PLY)
+#: rounded apart (one float32 step of a coordinate is at most 1.2e-7 of it: 1.5e-4 median edges for a
+#: mesh 500 mm from the origin with 0.4 mm edges); vesselgp.clean_mesh merges the same copies.
+SEAM_COINCIDENCE = 1e-3
 #: Units guess: a bounding-box diagonal below this suggests metres (mm vessels span 10-500).
 UNITS_M_MAX_DIAG = 0.5
 #: Units guess: a diagonal below this, with median edges finer than

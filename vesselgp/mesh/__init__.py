@@ -7,6 +7,9 @@ One concept per module:
   components), built once and shared by the other modules;
 * :mod:`.clean`: :func:`clean_mesh` repairs what segmentation and STL export
   leave behind (pymeshlab filters) and keeps the largest connected piece;
+* :mod:`.seams`: :func:`~.seams.open_seams` recognises a mesh torn along seams of
+  duplicate vertices (a multi-patch export), and gives the one message every
+  refusal of it raises;
 * :mod:`.scale`: :func:`mesh_scale` reports edge length, size and a guess of
   the units;
 * :mod:`.ends`: :func:`vessel_ends` finds where a vessel ends (open boundary

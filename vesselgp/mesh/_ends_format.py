@@ -1,7 +1,7 @@
 """Text of vessel ends in messages: points printed for the mesh's size, listings cut short.
 
 :func:`format_point` is the one rule for printed coordinates (re-exported by
-:mod:`vesselgp.mesh`; :mod:`vesselgp.inside` and the pipeline use it too).
+:mod:`vesselgp.mesh`; :mod:`vesselgp.inside` and the commands use it too).
 """
 from __future__ import annotations
 

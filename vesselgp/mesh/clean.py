@@ -3,7 +3,8 @@
 :func:`clean_mesh` runs these steps, one function each:
 
 1. :func:`_remove_defects`: unreferenced vertices, exactly coincident
-   vertices, duplicate and zero-area faces (pymeshlab filters);
+   vertices (and the copies along open seams rounded apart, :func:`_merge_seams`),
+   duplicate and zero-area faces (pymeshlab filters);
 2. :func:`_repair_non_manifold`: non-manifold edges (dangling fins first, see
    :func:`_fin_faces`, then pymeshlab's face removal) and vertices (split);
 3. :func:`_orient_coherently`: pymeshlab's coherent re-orientation, skipped
@@ -29,6 +30,7 @@ from .._validate import as_mesh
 from ..errors import InvalidMeshError, OptionError
 from ._geometry import face_vectors, signed_volume
 from .scale import mesh_scale
+from .seams import open_seams
 from .topology import MeshTopology
 
 __all__ = ["clean_mesh", "CleanReport"]
@@ -47,7 +49,9 @@ class CleanReport:
     unreferenced_vertices_removed : int
         Vertices of the input that no face used.
     duplicate_vertices_merged : int
-        Vertices merged into another vertex at exactly the same position.
+        Vertices merged into another vertex at exactly the same position, or along an open
+        seam within ``tolerances.SEAM_COINCIDENCE`` median edges of it
+        (:func:`vesselgp.mesh.seams.open_seams`).
     duplicate_faces_removed : int
         Faces repeating the vertex set of another face.
     zero_area_faces_removed : int
@@ -132,7 +136,9 @@ def clean_mesh(V, F=None, keep_largest=True, *, smooth=0):
     """Repair a triangle mesh and keep its largest connected component; optionally smooth it.
 
     Steps (pymeshlab filters unless noted): remove unreferenced vertices,
-    merge exactly coincident vertices, remove duplicate and zero-area faces,
+    merge exactly coincident vertices (and the copies of an open seam's vertices within
+    ``tolerances.SEAM_COINCIDENCE`` median edges of each other, the duplicates
+    :func:`vesselgp.mesh.seams.open_seams` counts), remove duplicate and zero-area faces,
     repair non-manifold edges (by removing faces) and vertices (by splitting),
     orient faces coherently, keep the largest edge-connected component by area
     (numpy, :attr:`MeshTopology.face_components`), and orient a closed surface
@@ -186,8 +192,8 @@ def clean_mesh(V, F=None, keep_largest=True, *, smooth=0):
     smooth = _smoothing_iterations(smooth)
     V, F = as_mesh(V, F)
     ml = _MeshLab(V, F)
-    counts = _remove_defects(ml)
-    repaired, topo = _repair_non_manifold(ml)
+    counts, topo = _remove_defects(ml)
+    repaired, topo = _repair_non_manifold(ml, topo)
     counts.update(repaired)
     V2, F2, vmap, flips, topo = _orient_coherently(ml, topo)
     V2, F2, vmap, flips, ncomp, closed = _keep_largest_component(V2, F2, vmap, flips, topo, keep_largest)
@@ -257,18 +263,62 @@ class _MeshLab:
 
 
 def _remove_defects(ml):
-    """Unreferenced vertices, exact duplicate vertices, duplicate faces, zero-area faces: counts."""
+    """Unreferenced vertices, duplicate vertices, duplicate faces, zero-area faces: counts, and the topology.
+
+    Exactly coincident vertices are merged (pymeshlab), then the copies along open seams that
+    rounding left apart (:func:`_merge_seams`), and the faces repeated or emptied by the merges removed.
+
+    Returns
+    -------
+    counts : dict
+    topo : MeshTopology
+        Of the current faces.
+    """
     c = {}
     c["unreferenced_vertices_removed"], _ = ml.run("meshing_remove_unreferenced_vertices")
     dv, df = ml.run("meshing_remove_duplicate_vertices")  # faces that lost a corner go too
-    c["duplicate_vertices_merged"] = dv
     c["duplicate_faces_removed"] = ml.run("meshing_remove_duplicate_faces")[1]
-    c["zero_area_faces_removed"] = df + ml.run("meshing_remove_null_faces")[1]
-    return c
+    df += ml.run("meshing_remove_null_faces")[1]
+    sv, topo = _merge_seams(ml)
+    if sv:
+        df += sv[1]
+        c["duplicate_faces_removed"] += ml.run("meshing_remove_duplicate_faces")[1]
+        df += ml.run("meshing_remove_null_faces")[1]
+        topo = MeshTopology(ml.faces(), ml.counts()[0])
+    c["duplicate_vertices_merged"] = dv + (sv[0] if sv else 0)
+    c["zero_area_faces_removed"] = df
+    return c, topo
 
 
-def _repair_non_manifold(ml):
-    """Repair non-manifold edges and vertices.
+def _merge_seams(ml):
+    """Merge the copies along open seams that are not exactly coincident.
+
+    A float32 file rounds the two copies of a seam vertex apart now and then;
+    :func:`vesselgp.mesh.seams.open_seams` takes them as one position (within
+    ``tolerances.SEAM_COINCIDENCE`` median edges) and every refusal of a seam names this
+    function, so it merges what they count: each copy is moved onto (and takes the input
+    index of) the vertex it merges into, and merged exactly.
+
+    Returns
+    -------
+    merged : tuple or None
+        (vertices merged, faces removed) when there were such copies, else None.
+    topo : MeshTopology
+        Of the current faces before the merge.
+    """
+    m = ml.ms.current_mesh()
+    V, F = m.vertex_matrix(), ml.faces()
+    topo = MeshTopology(F, len(V))
+    seams = open_seams(V, topo)
+    if seams is None:
+        return None, topo
+    ids = m.vertex_custom_scalar_attribute_array("vgp_id")
+    ml._load(V[seams.merge], F, ids[seams.merge])
+    return ml.run("meshing_remove_duplicate_vertices"), topo
+
+
+def _repair_non_manifold(ml, topo):
+    """Repair non-manifold edges and vertices (``topo``: of the current faces).
 
     Returns
     -------
@@ -285,7 +335,6 @@ def _repair_non_manifold(ml):
         No face left.
     """
     Fm = ml.faces()
-    topo = MeshTopology(Fm, ml.counts()[0])
     c = {"non_manifold_edges_repaired": len(topo.nonmanifold_edges), "non_manifold_faces_removed": 0}
     if c["non_manifold_edges_repaired"]:
         fins = _fin_faces(topo)

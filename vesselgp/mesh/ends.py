@@ -19,7 +19,6 @@ import igl
 import numpy as np
 
 from .. import tolerances as tol
-from .._arrays import unique_rows
 from .._validate import as_mesh
 from ..errors import EndsError, InvalidMeshError, NotTubularError
 from ._ends_caps import find_caps
@@ -28,6 +27,7 @@ from ._ends_staircase import check_staircase
 from ._ends_tips import extreme_tips, find_tips, own_tube
 from ._geometry import loop_centroid, vector_area
 from .orient import orient_faces
+from .seams import refuse_seams
 from .topology import MeshTopology
 
 __all__ = ["vessel_ends", "VesselEnd", "FlatPatch", "select_ends"]
@@ -192,7 +192,7 @@ def found_ends(V, F, topo, sacs=None, flat_patches=None):
     w = topo.edge_lengths(V)
     h = float(np.median(w)) if len(w) else 0.0
     check_staircase(V, F, N, A, h)
-    _check_surface(V, F, topo)
+    _check_surface(V, F, topo, h)
     scale = bbox_diagonal(V if topo.referenced.all() else V[topo.referenced])
     graph = _Lazy(lambda: topo.edge_matrix(w))
     body = _Nearby(V)
@@ -279,13 +279,15 @@ def _topology_of(F, n, topology):
     return topology
 
 
-def _check_surface(V, F, topo):
+def _check_surface(V, F, topo, h):
     """Raise :class:`InvalidMeshError` on defects that make boundary loops meaningless.
 
     Each defect is one that :func:`clean_mesh` repairs, and the message says so:
     faces with a repeated vertex index, non-manifold edges, inconsistently
     oriented faces (their shared edges would look like boundary loops), and
-    open seams of duplicate vertices (a seam looks like two vessel ends).
+    open seams of duplicate vertices (a seam looks like two vessel ends; the message of
+    :func:`.seams.refuse_seams`, given by every refusal of a seam). ``h`` is the median of
+    ``topo.edge_lengths(V)``.
     """
     rep = int(np.count_nonzero((F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 2] == F[:, 0])))
     if rep:
@@ -305,21 +307,7 @@ def _check_surface(V, F, topo):
             f"mesh faces are not consistently oriented ({bad} edges are used twice in the same "
             "direction); run vesselgp.clean_mesh to orient them"
         )
-    B = topo.edges[topo.boundary_edges]
-    if len(B):
-        # an open seam: boundary edges lying on top of other boundary edges (a
-        # split bow-tie vertex alone, as clean_mesh leaves it, is not one)
-        bv = np.unique(B)  # only boundary vertices can form a seam
-        _, posb = np.unique(V[bv] + 0.0, axis=0, return_inverse=True)
-        pos = np.zeros(len(V), np.int64)
-        pos[bv] = posb.reshape(-1)
-        _, bc = unique_rows(np.sort(pos[B], axis=1), return_counts=True)
-        dup = int(np.count_nonzero(bc > 1))
-        if dup:
-            raise InvalidMeshError(
-                f"mesh has open seams of duplicate vertices ({dup} boundary edges lie on other "
-                "boundary edges); run vesselgp.clean_mesh to merge the duplicates"
-            )
+    refuse_seams(V, topo, h)  # a seam looks like two vessel ends (a split bow-tie vertex alone is none)
 
 
 def _make_end(nearby, kind, loop, region, center, normal, scale, faces=None):

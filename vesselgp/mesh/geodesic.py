@@ -40,6 +40,7 @@ import scipy.sparse as sp
 from .. import tolerances as tol
 from ..errors import InvalidMeshError, OptionError
 from ._geometry import cotangent_operators, voronoi_areas
+from .seams import refuse_seams
 from .topology import mesh_topology
 
 __all__ = ["GeodesicDistances"]
@@ -66,8 +67,9 @@ class GeodesicDistances:
     ------
     InvalidMeshError
         Several connected components (their distances from each other are undefined; an
-        unreferenced vertex counts as one), or non-manifold or inconsistently oriented faces
-        (boundary loops are then undefined).
+        unreferenced vertex counts as one; pieces that touch along open seams of duplicate
+        vertices are named so, :func:`vesselgp.mesh.seams.open_seams`), or non-manifold or
+        inconsistently oriented faces (boundary loops are then undefined).
     OptionError
         A ``topology`` of other faces, or ``areas`` not one per vertex.
 
@@ -89,6 +91,7 @@ class GeodesicDistances:
             raise OptionError(f"the topology given is of other faces ({topo.n_faces} faces, {topo.n_vertices} "
                               f"vertices; these are {len(F)} and {len(V)}); pass the topology of F or none")
         if topo.vertex_components[0] > 1:
+            refuse_seams(V, topo)  # pieces that touch along open seams: merge them
             raise InvalidMeshError(
                 f"mesh has {topo.vertex_components[0]} connected components (unreferenced vertices count "
                 "as one each), so geodesic distances between them are undefined; run vesselgp.clean_mesh "
