@@ -91,8 +91,12 @@ def bench_join_vessels(sizes, repeat=3):
         y = REAL / "vmtk_abdominal_aorta_iliac_bifurcation_open.stl"
         if y.exists():
             Vy, Fy = vg.read_mesh(y)[:2]
-            k = int(np.argmin([e.radius for e in vg.vessel_ends(Vy, Fy)]))
-            rows.append(_case("real Y (an iliac moves, a tree) onto real capped artery", Vy, Fy, k, Vo, Fo, 0, repeat))
+            ey = vg.vessel_ends(Vy, Fy)
+            k = int(np.argmin([e.radius for e in ey]))
+            # the capped artery at the iliac's calibre (an end-to-end join needs similar radii: 4.38 against 2.46)
+            Vs = Vo * (ey[k].radius / vg.vessel_ends(Vo, Fo)[0].radius)
+            rows.append(_case("real Y (an iliac moves, a tree) onto the real capped artery scaled to its calibre", Vy,
+                              Fy, k, Vs, Fo, 0, repeat))
     return rows
 
 

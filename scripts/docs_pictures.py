@@ -93,7 +93,7 @@ def join_picture(data, tmp):
     """The least-torsion join of two real vessels, the moving one placed 1 mm in front of the other."""
     out = tmp / "join"
     vesselgp_cli(["join", str(data / JOIN_MOVING), "--end", "1", "--onto", str(data / JOIN_OTHER),
-                  "--other-end", "0", "--place", "1", "-o", str(out), "-q"])
+                  "--other-end", "1", "--place", "1", "-o", str(out), "-q"])
     return out / "optimum.png", out / "large_torsion.png"
 
 

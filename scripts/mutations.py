@@ -1530,6 +1530,30 @@ MUTATIONS = {
         "    Rq = Rq",
         ["tests/test_real_shapes.py"],
     ),
+    "join_calibre_one_way": (
+        "vesselgp/join_vessels.py",
+        "    ratio = max(r, ro) / min(r, ro)",
+        "    ratio = ro / r",
+        ["tests/test_join_vessels.py"],
+    ),
+    "join_stretch_no_place_hint": (
+        "vesselgp/join_vessels.py",
+        "    place = \"\" if placed else \", or place the vessel facing the other end first (place=GAP, for two vessels in \" \\",
+        "    place = \"\" if True else \", or place the vessel facing the other end first (place=GAP, for two vessels in \" \\",
+        ["tests/test_join_vessels.py"],
+    ),
+    "torsion_length_eq6_overshoot": (
+        "vesselgp/torsion.py",
+        "        self._length = rest.length / rest_axis.length",
+        "        self._length = 1.0",
+        ["tests/test_output_fields.py"],
+    ),
+    "batch_failures_exit_zero": (
+        "vesselgp/cli.py",
+        "    if rep.failed:  # a cohort fails loudly",
+        "    if False:  # a cohort fails loudly",
+        ["tests/test_batch.py"],
+    ),
 }
 
 

@@ -162,16 +162,52 @@ def test_a_crash_and_a_timeout_are_failures(cohort, tmp_path):
 
 
 def test_cli_batch_with_one_worker(cohort, tmp_path, capsys):
+    """Two corrupt meshes of twelve: every row runs, then the command exits 1 with one line on stderr
+    naming how many failed, their kinds (as results.csv records them) and where the rows are."""
     out = tmp_path / "cli"
-    assert main(["batch", str(cohort / "meshes.csv"), "-o", str(out), "--workers", "1", "--json"]) == 0
-    s = json.loads(capsys.readouterr().out)
+    assert main(["batch", str(cohort / "meshes.csv"), "-o", str(out), "--workers", "1", "--json"]) == 1
+    cap = capsys.readouterr()
+    s = json.loads(cap.out)
     assert s["rows"] == 12 and s["computed"] == 12 and s["failed"] == 2
-    assert (out / "results.csv").exists()
-    assert main(["batch", str(cohort / "meshes.csv"), "-o", str(out), "--workers", "1", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["computed"] == 0
+    with open(out / "results.csv", newline="") as fh:
+        kinds = [r["error_type"] for r in csv.DictReader(fh) if r["status"] != "ok"]
+    assert len(kinds) == 2 and s["failed_kinds"] == {k: kinds.count(k) for k in set(kinds)}
+    line = cap.err.strip()
+    assert "\n" not in line and line.startswith("vesselgp: 2 of 12 rows failed (")
+    assert all(f"{k} {kinds.count(k)}" in line for k in set(kinds)) and str(out / "results.csv") in line
+    assert main(["batch", str(cohort / "meshes.csv"), "-o", str(out), "--workers", "1", "--json"]) == 1
+    assert json.loads(capsys.readouterr().out)["computed"] == 0  # a re-run fails as loudly
     (tmp_path / "empty.csv").write_text("foo,bar\n1,2\n")
     assert main(["batch", str(tmp_path / "empty.csv"), "-o", str(tmp_path / "x")]) == 2
     assert "needs a 'mesh' column" in capsys.readouterr().err
+
+
+def test_a_cohort_exits_zero_with_no_failed_row_and_one_with_one(cohort, tmp_path, capsys):
+    """The exit code's edge: ten good rows give 0 and nothing on stderr; the same with one corrupt row gives 1."""
+    rows = (cohort / "meshes.csv").read_text().splitlines()
+    (cohort / "good.csv").write_text("\n".join(rows[:11]) + "\n")
+    (cohort / "one_bad.csv").write_text("\n".join(rows[:12]) + "\n")
+    assert main(["batch", str(cohort / "good.csv"), "-o", str(tmp_path / "g"), "--workers", "0"]) == 0
+    assert capsys.readouterr().err == ""
+    assert main(["batch", str(cohort / "one_bad.csv"), "-o", str(tmp_path / "b"), "--workers", "0"]) == 1
+    assert capsys.readouterr().err.startswith("vesselgp: 1 of 11 rows failed (")
+
+
+def test_without_pyarrow_the_summary_says_why_there_is_no_parquet(cohort, tmp_path, capsys, monkeypatch):
+    """results.parquet needs pyarrow: without it results.csv is written whole and the summary says so."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # import pyarrow raises ImportError
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)
+    (cohort / "two.csv").write_text("\n".join((cohort / "meshes.csv").read_text().splitlines()[:3]) + "\n")
+    out = tmp_path / "np"
+    assert main(["batch", str(cohort / "two.csv"), "-o", str(out), "--workers", "0"]) == 0
+    text = capsys.readouterr().out
+    assert batch.NO_PARQUET in text and "pip install 'vesselgp[batch]'" in text
+    assert (out / "results.csv").exists() and not (out / "results.parquet").exists()
+    monkeypatch.undo()
+    assert main(["batch", str(cohort / "two.csv"), "-o", str(tmp_path / "p"), "--workers", "0"]) == 0
+    assert batch.NO_PARQUET not in capsys.readouterr().out and (tmp_path / "p" / "results.parquet").exists()
 
 
 def _worker_environment():
@@ -504,10 +540,10 @@ def test_dask_pays_at_its_crossover():
 def test_the_default_runner_is_serial_for_a_small_cohort_and_says_so(cohort, tmp_path, capsys):
     """12 small rows (a few hundredths of a second each) would not pay for a cluster: they run serially, and the
     command says so; --workers still forces Dask."""
-    assert main(["batch", str(cohort / "meshes.csv"), "-o", str(tmp_path / "a"), "--json"]) == 0
+    assert main(["batch", str(cohort / "meshes.csv"), "-o", str(tmp_path / "a"), "--json"]) == 1  # 2 corrupt rows
     s = json.loads(capsys.readouterr().out)
     assert s["runner"] == "serial" and s["serial_rows"] == 12 and s["dask_rows"] == 0
-    assert main(["batch", str(cohort / "meshes.csv"), "-o", str(tmp_path / "b")]) == 0
+    assert main(["batch", str(cohort / "meshes.csv"), "-o", str(tmp_path / "b")]) == 1
     assert "12 computed serially, in this process" in capsys.readouterr().out
     rep = batch.run(cohort / "meshes.csv", tmp_path / "a")
     assert rep.runner == "none" and rep.computed == 0

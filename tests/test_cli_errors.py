@@ -40,13 +40,13 @@ def files(tmp_path_factory):
     e1 = vg.vessel_ends(V, F)[1]
     Vo, Fo = vg.read_mesh(CAPPED)[:2]
     eo = vg.vessel_ends(Vo, Fo)
-    vg.write_mesh(d / "far.ply", place_other(Vo, eo[0], e1.center + 150.0 * _unit(e1.direction), e1.direction, 0.0),
+    vg.write_mesh(d / "far.ply", place_other(Vo, eo[1], e1.center + 150.0 * _unit(e1.direction), e1.direction, 0.0),
                   Fo)
     return d
 
 
 def _join(files, *options):
-    return ["join", CORONARY, "--end", 1, "--onto", files / "far.ply", "--other-end", 0, *options]
+    return ["join", CORONARY, "--end", 1, "--onto", files / "far.ply", "--other-end", 1, *options]
 
 
 @pytest.mark.parametrize("args, fragment", [

@@ -422,3 +422,20 @@ def test_missing_packages_say_what_to_install(tube, monkeypatch):
         vesselgp.io.to_trimesh(tube.V, tube.F)
     assert issubclass(vesselgp.TreeDependencyError, DependencyError)
     assert issubclass(vesselgp.TreeDependencyError, OptionError)
+
+
+@pytest.mark.parametrize("command", ["fit", "torsion", "join", "twist", "clean", "ends"])
+def test_every_command_lists_every_format_it_reads(command, capsys):
+    """Issue #49: `--help` of each command that reads meshes lists every format read_mesh takes (it listed
+    five of seven), and each listed format is one read_mesh reads (READ_FORMATS is the reader's own list,
+    and the tests above read .vtk and .vtu files)."""
+    import re
+
+    from vesselgp.cli import main
+
+    assert main([command, "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    lists = re.findall(r"\((\.\w+(?: \.\w+)+)\)", text)
+    assert lists, text
+    for listed in lists:
+        assert listed.split() == list(vesselgp.io.READ_FORMATS), listed

@@ -153,12 +153,18 @@ def test_real_join_rolled_70_degrees_keeps_edges_bounded(capped_join):
 
 
 def test_real_coronary_onto_iliac_of_a_y(coronary):
-    """The vessel joined to may be a tree: the coronary's end 0 onto one iliac's open end."""
+    """The vessel joined to may be a tree: the coronary's end 0 onto one iliac's open end, the Y scaled to the
+    coronary's calibre (as it is, 3.01 times wider, the join is refused: issue #49)."""
     V, F, ends, L = coronary
     Vy, Fy = vg.read_mesh(Y)[:2]
     ey = vg.vessel_ends(Vy, Fy)
     k = int(np.argmin([e.radius for e in ey]))
     origin, t = target_at(ends[0], L, 0.1, 20.0)
+    with pytest.raises(ImplausibleJoinError, match=r"the ends' radii differ 3\.01x \(the moving end 1\.45, the other "
+                                                   r"end 4\.38; at most max_radius_ratio = 1\.5\)"):
+        vg.join_vessels(V, F, 0, place_other(Vy, ey[k], origin, t, 0.0), Fy, k)
+    Vy = Vy * (ends[0].radius / ey[k].radius)  # a Y of the coronary's calibre
+    ey = vg.vessel_ends(Vy, Fy)
     W = place_other(Vy, ey[k], origin, t, np.radians(-30.0))
     res = vg.join_vessels(V, F, 0, W, Fy, k)
     top = MeshTopology(res.joined_F, len(res.joined_V))
@@ -176,6 +182,8 @@ def test_real_y_moves_one_iliac(capped_placed):
     Vo, Fo = vg.read_mesh(CAPPED)[:2]
     eo = vg.vessel_ends(Vo, Fo)
     k = int(np.argsort([e.radius for e in ey])[0])
+    Vo = Vo * (ey[k].radius / eo[0].radius)  # the capped artery at the iliac's calibre
+    eo = vg.vessel_ends(Vo, Fo)
     tree = vg.fit_vessel_tree(Vy, Fy)
     L = tree.branches[tree.path_branches[[p.ends[1] for p in tree.paths].index(k)][-1]].length
     origin, t = target_at(ey[k], L, 0.1, 25.0)
@@ -202,9 +210,9 @@ def test_far_target_is_refused(coronary):
     Vo, Fo = vg.read_mesh(CAPPED)[:2]
     eo = vg.vessel_ends(Vo, Fo)
     origin = ends[1].center + 150.0 * _unit(ends[1].direction)
-    W = place_other(Vo, eo[0], origin, ends[1].direction, 0.0)
+    W = place_other(Vo, eo[1], origin, ends[1].direction, 0.0)
     with pytest.raises(ImplausibleJoinError, match="stretched .*x along its axis"):
-        vg.join_vessels(V, F, 1, W, Fo, 0)
+        vg.join_vessels(V, F, 1, W, Fo, 1)
 
 
 def test_compressing_target_is_refused(coronary):
@@ -214,9 +222,9 @@ def test_compressing_target_is_refused(coronary):
     eo = vg.vessel_ends(Vo, Fo)
     gc = vg.fit_generalized_cylinder(V, F, ends=(0, 1))
     mid = gc.at([0.55])[0][0]
-    W = place_other(Vo, eo[0], mid, ends[1].direction, 0.0)
+    W = place_other(Vo, eo[1], mid, ends[1].direction, 0.0)
     with pytest.raises(ImplausibleJoinError, match="compressed"):
-        vg.join_vessels(V, F, 1, W, Fo, 0)
+        vg.join_vessels(V, F, 1, W, Fo, 1)
 
 
 def test_u_turn_target_is_refused(coronary):
@@ -226,12 +234,12 @@ def test_u_turn_target_is_refused(coronary):
     eo = vg.vessel_ends(Vo, Fo)
     d = _unit(ends[1].direction)
     side = _unit(np.cross(d, [0, 0, 1.0]))
-    W = place_other(Vo, eo[0], ends[1].center + 3 * ends[1].radius * side, -d, 0.0)
+    W = place_other(Vo, eo[1], ends[1].center + 3 * ends[1].radius * side, -d, 0.0)
     # with the default hold (90 % of the vessel free, about 60 mm at radius 1.3 mm) a U-turn has room
-    j = vg.VesselJoin(V, F, 1, W, Fo, 0, max_stretch=10.0)
+    j = vg.VesselJoin(V, F, 1, W, Fo, 1, max_stretch=10.0)
     assert j.problem.placement.max_bend[0] < 1.0
     with pytest.raises(ImplausibleJoinError, match="tighter than the radius allows"):
-        vg.join_vessels(V, F, 1, W, Fo, 0, max_stretch=10.0, hold=0.95)
+        vg.join_vessels(V, F, 1, W, Fo, 1, max_stretch=10.0, hold=0.95)
 
 
 def test_bad_end_indices_list_the_ends(coronary, capped_placed):
@@ -362,14 +370,14 @@ def test_cli_refuses_before_writing(tmp_path, coronary, capped_placed, capsys):
     V, F, ends, _ = coronary
     Vo, Fo = vg.read_mesh(CAPPED)[:2]
     eo = vg.vessel_ends(Vo, Fo)
-    W = place_other(Vo, eo[0], ends[1].center + 150.0 * _unit(ends[1].direction), ends[1].direction, 0.0)
+    W = place_other(Vo, eo[1], ends[1].center + 150.0 * _unit(ends[1].direction), ends[1].direction, 0.0)
     far = tmp_path / "far.ply"
     vg.write_mesh(far, W, Fo)
     out = tmp_path / "nothing"
-    rc = main(["join", str(CORONARY), "--end", "1", "--onto", str(far), "--other-end", "0", "-o", str(out)])
+    rc = main(["join", str(CORONARY), "--end", "1", "--onto", str(far), "--other-end", "1", "-o", str(out)])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and not out.exists()
-    assert len(err) == 1 and "stretched" in err[0]
+    assert len(err) == 1 and "stretched" in err[0] and "--place GAP" in err[0]  # unrelated coordinates need it
     rc = main(["join", str(CORONARY), "--end", "1", "--onto", str(far), "-o", str(out)])
     assert rc == 2 and not out.exists()
     assert "--other-end" in capsys.readouterr().err
@@ -528,9 +536,9 @@ def _guarded(p, refused, match):
 
     if refused:
         with pytest.raises(ImplausibleJoinError, match=match):
-            _plausible(p, 1.3)
+            _plausible(p, 1.3, False)
     else:
-        _plausible(p, 1.3)
+        _plausible(p, 1.3, False)
 
 
 @pytest.mark.parametrize("kr, refused", [(0.9, False), (1.1, True)])
@@ -620,8 +628,8 @@ def test_the_placement_gap_at_its_edge(coronary, capped_placed, gap, ok):
 
 
 @pytest.mark.parametrize("moving, end, other", [
-    ("xra_coronary_single_branch_open.stl", 0, "vmtk_abdominal_aorta_iliac_bifurcation_open.stl"),
-    ("dfemtoolz_artery_segment_lumen_capped.stl", 0, "xra_coronary_single_branch_open.stl"),
+    ("xra_coronary_single_branch_open.stl", 0, "dfemtoolz_artery_segment_lumen_capped.stl"),
+    ("dfemtoolz_artery_segment_lumen_capped.stl", 0, "gmsh_abdominal-aorta-renal-iliac_open.stl"),
     ("vmtk_abdominal_aorta_iliac_bifurcation_open.stl", 1, "gmsh_aortic-arch_open.stl"),
 ])
 def test_real_vessels_in_their_own_coordinates_join_once_placed(moving, end, other):
@@ -634,7 +642,8 @@ def test_real_vessels_in_their_own_coordinates_join_once_placed(moving, end, oth
     Vo = Vo * scale
     eo = vg.vessel_ends(Vo, Fo)
     k = int(np.argmin([abs(e.radius - vg.vessel_ends(V, F)[end].radius) for e in eo]))
-    with pytest.raises(ImplausibleJoinError, match="stretched"):
+    with pytest.raises(ImplausibleJoinError, match=r"stretched .*or place the vessel facing the other end first "
+                                                   r"\(place=GAP"):
         vg.VesselJoin(V, F, end, Vo, Fo, k)
     res = vg.join_vessels(V, F, end, Vo, Fo, k, place=1.0)
     assert 1.0 <= res.axial_stretch < 1.1 and res.max_bend < 0.6
@@ -644,16 +653,23 @@ def test_real_vessels_in_their_own_coordinates_join_once_placed(moving, end, oth
 
 
 def test_cli_place(tmp_path, capsys):
-    """`vesselgp join A --end 0 --onto B --other-end 2 --place 1`: the two real files, in their own coordinates,
+    """`vesselgp join A --end 0 --onto B --other-end 1 --place 1`: the two real files (ends of radius 1.45 and 1.40), in their own coordinates,
     are joined; result.json says how far the vessel was moved and turned (checked against the two files' end
     centres: the moved end lands 1 mm in front of the other end); a negative gap is a one-line error naming --place."""
     out = tmp_path / "placed"
+    capsys.readouterr()
+    # the issue's case: the coronary onto an iliac of the Y, 3.01 times wider, is refused naming the ratio
     assert main(["join", str(CORONARY), "--end", "0", "--onto", str(Y), "--other-end", "2", "--place", "1",
+                 "-o", str(tmp_path / "wide"), "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "radii differ 3.01x" in err and "--max-radius-ratio 1.5" not in err
+    assert "raise --max-radius-ratio" in err and not (tmp_path / "wide").exists()
+    assert main(["join", str(CORONARY), "--end", "0", "--onto", str(CAPPED), "--other-end", "1", "--place", "1",
                  "-o", str(out), "-q", "--no-png", "--n-curve", "3"]) == 0
     r = json.loads((out / "result.json").read_text())
     V, F = vg.read_mesh(CORONARY)[:2]
-    Vy, Fy = vg.read_mesh(Y)[:2]
-    e, eo = vg.vessel_ends(V, F)[0], vg.vessel_ends(Vy, Fy)[2]
+    Vy, Fy = vg.read_mesh(CAPPED)[:2]
+    e, eo = vg.vessel_ends(V, F)[0], vg.vessel_ends(Vy, Fy)[1]
     M = np.asarray(r["placement"]["matrix"])
     assert np.linalg.norm(M[:3, :3] @ e.center + M[:3, 3] - (eo.center + eo.direction)) < 0.05 * e.radius
     assert r["placement"]["moved_mm"] == pytest.approx(np.linalg.norm(eo.center + eo.direction - e.center), rel=0.02)
@@ -662,7 +678,29 @@ def test_cli_place(tmp_path, capsys):
     assert r["placement"]["turned_deg"] == pytest.approx(np.degrees(np.arccos(cos)), abs=0.01)
     assert r["axial_stretch"] < 1.1 and (out / "joined_optimum.ply").is_file()
     capsys.readouterr()
-    assert main(["join", str(CORONARY), "--end", "0", "--onto", str(Y), "--other-end", "2", "--place", "-1",
+    assert main(["join", str(CORONARY), "--end", "0", "--onto", str(CAPPED), "--other-end", "1", "--place", "-1",
                  "-o", str(tmp_path / "neg"), "-q"]) == 2
     err = capsys.readouterr().err.strip()
     assert "--place -1.0 is not a gap" in err and "\n" not in err and not (tmp_path / "neg").exists()
+
+
+@pytest.mark.parametrize("ratio, refused", [(1.45, False), (1.55, True), (1 / 1.45, False), (1 / 1.55, True)])
+def test_the_calibre_guard_at_its_edge(ratio, refused):
+    """Issue #49: two straight tubes, the moving one of radius 2, the other of radius 2 x ratio, placed 1.5 apart:
+    an end-to-end join needs similar calibres (tolerances.JOIN_MAX_RADIUS_RATIO = 1.5, either way round). 1.45
+    is joined, 1.55 refused with the ratio and both radii in the message; raising max_radius_ratio joins it."""
+    from vesselgp.synthetic import named_curve
+
+    a = synthetic_vessel(named_curve("straight", length=30.0), radius=2.0, n_around=32, ends="open")
+    b = synthetic_vessel(named_curve("straight", length=20.0), radius=2.0 * ratio, n_around=32, ends="open")
+    want = max(ratio, 1 / ratio)
+    if not refused:
+        join = vg.VesselJoin(a.V, a.F, 1, b.V, b.F, 1, place=1.5)
+        got = join.other.radius / join.ends[join.end].radius
+        assert max(got, 1 / got) == pytest.approx(want, rel=0.01)
+        return
+    rm, ro = 2.0, 2.0 * ratio
+    with pytest.raises(ImplausibleJoinError, match=rf"the ends' radii differ {want:.2f}x \(the moving end {rm:.3g}, "
+                                                   rf"the other end {ro:.3g}; at most max_radius_ratio = 1\.5\)"):
+        vg.VesselJoin(a.V, a.F, 1, b.V, b.F, 1, place=1.5)
+    vg.VesselJoin(a.V, a.F, 1, b.V, b.F, 1, place=1.5, max_radius_ratio=1.6)

@@ -52,6 +52,7 @@ import logging
 import math
 import os
 import time
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -102,6 +103,10 @@ class BatchReport:
         (:func:`dask_pays`), or nothing (every row was done before).
     serial_rows, dask_rows : int
         Rows computed in this process and on Dask.
+    out : str
+        The output folder.
+    notes : tuple of str
+        What was not written and why (``results.parquet`` without pyarrow).
     """
 
     rows: list
@@ -113,6 +118,30 @@ class BatchReport:
     runner: str = "serial"
     serial_rows: int = 0
     dask_rows: int = 0
+    out: str = ""
+    notes: tuple = ()
+
+    @property
+    def failed_kinds(self):
+        """dict: error type -> number of failed rows, most frequent first."""
+        kinds = Counter(r["error_type"] or "error" for r in self.rows if r["status"] != "ok")
+        return dict(kinds.most_common())
+
+    def failure_summary(self):
+        """One line on the failed rows (how many, which error kinds, where they are), or None when none failed.
+
+        Examples
+        --------
+        >>> rows = [{"status": "ok", "error_type": None}] + 2 * [{"status": "error", "error_type": "ReadError"}]
+        >>> print(BatchReport(rows, 3, 0, 2, [], 0.1, out="res").failure_summary())
+        2 of 3 rows failed (ReadError 2); each row's error is in res/results.csv (status, error_type, error) and res/rows/<key>.json
+        """
+        if not self.failed:
+            return None
+        kinds = ", ".join(f"{k} {n}" for k, n in self.failed_kinds.items())
+        where = os.path.join(self.out, "")
+        return (f"{self.failed} of {len(self.rows)} rows failed ({kinds}); each row's error is in "
+                f"{where}results.csv (status, error_type, error) and {where}rows/<key>.json")
 
 
 def read_manifest(path):
@@ -563,12 +592,13 @@ def run(manifest, out, client=None, *, workers=None, scheduler=None, timeout=Non
             save(row, {**now, **{k: v for k, v in rec.items() if k not in now}})
     table = [_result_row(row, records[row["key"]]) for row in rows]
     out.mkdir(parents=True, exist_ok=True)
-    files += _write_results(out, columns, table)
+    written, notes = _write_results(out, columns, table)
+    files += written
     failed = sum(r["status"] != "ok" for r in table)
     log.info("batch: %d rows, %d computed (%s), %d failed", len(rows), len(todo), runner, failed)
     return BatchReport(rows=table, computed=len(todo), skipped=len(rows) - len(todo), failed=failed, files=files,
                        time_s=time.perf_counter() - t0, runner=runner, serial_rows=len(todo) - len(on_dask),
-                       dask_rows=len(on_dask))
+                       dask_rows=len(on_dask), out=str(out), notes=notes)
 
 
 def dask_pays(rows_left, row_s, cores):
@@ -641,9 +671,13 @@ def _result_row(row, rec):
     return {**row["manifest"], **base, **rec.get("metrics", {})}
 
 
+#: Said when results.parquet cannot be written.
+NO_PARQUET = "results.parquet not written: it needs pyarrow (pip install 'vesselgp[batch]')"
+
+
 def _write_results(out, columns, table):
     """results.csv (and results.parquet when pyarrow is installed), atomically: the manifest's ``columns``
-    first."""
+    first. Returns the files written and what was not (:data:`NO_PARQUET`)."""
     cols = list(columns) + list(BASE_COLUMNS)
     for r in table:
         cols += [k for k in r if k not in cols]
@@ -660,8 +694,8 @@ def _write_results(out, columns, table):
         import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:
-        log.info("pyarrow is not installed: results.parquet not written")
-        return files
+        log.warning(NO_PARQUET)
+        return files, (NO_PARQUET,)
     t = pa.Table.from_pylist([{k: r.get(k) for k in cols} for r in table])
     atomic_write(out / "results.parquet", lambda fh: pq.write_table(t, fh), binary=True)
-    return files + [str(out / "results.parquet")]
+    return files + [str(out / "results.parquet")], ()

@@ -3,7 +3,8 @@
 A thin layer over the library: argument parsing, calls into :mod:`vesselgp`,
 writing outputs (atomically, never over an input file), printing. Bad input
 (any :class:`vesselgp.VesselError`) ends with a one-line message
-``vesselgp: error: ...`` on stderr and exit code 2, as do usage errors.
+``vesselgp: error: ...`` on stderr and exit code 2, as do usage errors. A batch
+whose rows ran but some failed ends with one line on stderr and exit code 1.
 Commands that read meshes take ``--units``/``--scale`` and report in millimetres.
 
 Examples
@@ -34,10 +35,13 @@ from .commands.torsion import run_torsion
 from .commands.twist import TWIST_FILES, twist_scans, twist_table, write_twist
 from .deform import METHODS, Frame
 from .errors import VesselError
-from .io import read_json, to_json, write_json
+from .io import READ_FORMATS, read_json, to_json, write_json
 from .mesh.scale import UNITS_TO_MM
 
 log = logging.getLogger("vesselgp.cli")
+
+#: Every format read_mesh takes, as the mesh arguments' help lists them.
+MESH_FORMATS = f"({' '.join(READ_FORMATS)})"
 
 EPILOG = {
     "main": """examples:
@@ -345,7 +349,8 @@ def _cmd_join_vessels(args):
     inp = join_vessels_inputs(
         args.vessel, args.onto, args.end, other_end, hold=None if args.hold is None else _hold(args.hold),
         method=args.method, max_stretch=args.max_stretch, moving_normal=args.moving_normal,
-        target_normal=args.target_normal, units=args.units, scale=args.scale, place=args.place)
+        target_normal=args.target_normal, units=args.units, scale=args.scale, place=args.place,
+        max_radius_ratio=args.max_radius_ratio)
     out = _output(args, inp["inputs"])
     out.check(JOIN_FILES)
     r = run_join_vessels(out.dir, inp["join"], name=Path(args.vessel).stem, n_curve=args.n_curve,
@@ -375,13 +380,17 @@ def cmd_batch(args):
                     timeout=args.timeout, retry_errors=args.retry_errors, progress=_progress(args) or None)
     summary = {"command": "batch", "rows": len(rep.rows), "computed": rep.computed, "skipped": rep.skipped,
                "failed": rep.failed, "time_s": rep.time_s, "runner": rep.runner, "serial_rows": rep.serial_rows,
-               "dask_rows": rep.dask_rows, "results": [f for f in rep.files if not f.endswith(".json")]}
+               "dask_rows": rep.dask_rows, "results": [f for f in rep.files if not f.endswith(".json")],
+               "failed_kinds": rep.failed_kinds, "notes": list(rep.notes)}
     how = {"serial": " serially, in this process", "dask": " on Dask",
            "serial, then dask": f": {rep.serial_rows} in this process, then {rep.dask_rows} on a local Dask cluster"}
     fails = "\n".join(f"  row {r['row']}: {r['error_type']}: {r['error']}" for r in rep.rows if r["status"] != "ok")
     _emit(args, summary, f"{len(rep.rows)} rows: {rep.computed} computed{how.get(rep.runner, '')}, {rep.skipped} "
                          f"already done, {rep.failed} failed, {rep.time_s:.1f} s" + (f"\n{fails}" if fails else "")
-                         + "\n" + "\n".join(f"  {f}" for f in summary["results"]))
+                         + "\n" + "\n".join(f"  {f}" for f in summary["results"] + list(rep.notes)))
+    if rep.failed:  # a cohort fails loudly: one line on stderr and exit code 1 (2 is bad input: nothing ran)
+        print(f"vesselgp: {rep.failure_summary()}", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -478,7 +487,7 @@ def _add_fit(sub, fmt):
                                    "rotation-minimizing frames. A mesh with more than two ends is fitted as a "
                                    "tree (one cylinder per branch, tree.json/.vtp/.ply and tree.png) unless "
                                    "--ends picks one path.", formatter_class=fmt, epilog=EPILOG["fit"])
-    p.add_argument("mesh", help="vessel mesh (.stl .ply .obj .off .vtp)")
+    p.add_argument("mesh", help=f"vessel mesh {MESH_FORMATS}")
     p.add_argument("--ends", type=int, nargs=2, metavar=("I", "J"),
                    help="indices of the two ends to fit between (for meshes with more than two ends; "
                         "'vesselgp ends' lists them)")
@@ -504,8 +513,8 @@ def _add_torsion(sub, fmt):
     p = sub.add_parser("torsion", help="material torsion of a deformed vessel (profile, energy, shaded mesh)",
                        description="Material torsion of a deformed vessel against its RMF (paper Eq. 6-8).",
                        formatter_class=fmt, epilog=EPILOG["torsion"])
-    p.add_argument("rest", help="rest mesh")
-    p.add_argument("deformed", help="deformed mesh (same vertices and faces)")
+    p.add_argument("rest", help=f"rest mesh {MESH_FORMATS}")
+    p.add_argument("deformed", help=f"deformed mesh, same vertices and faces {MESH_FORMATS}")
     p.add_argument("--smoothing", type=float, default=tol.TORSION_SMOOTHING,
                    help="smoothing length of alpha(s) in axis-node spacings (default: %(default)s)")
     p.add_argument("--ends", type=int, nargs=2, metavar=("I", "J"),
@@ -523,7 +532,7 @@ def _add_join(sub, fmt):
                        description="Minimum-torsion joining (paper Section 2.3): the end rotation of least "
                                    "torsion energy, shaded meshes at the optimum and at large torsion, the "
                                    "energy curve (Fig. 4).", formatter_class=fmt, epilog=EPILOG["join"])
-    p.add_argument("vessel", help="mesh of the vessel that is deformed")
+    p.add_argument("vessel", help=f"mesh of the vessel that is deformed {MESH_FORMATS}")
     p.add_argument("--case", help="case.json (as written by 'vesselgp generate --paper-cases' or "
                                   "data_gen/make_paper_cases.py); the vessel joined to is the file it names "
                                   "as other_mesh, unless --other is given")
@@ -540,7 +549,8 @@ def _add_join(sub, fmt):
     p.add_argument("--end", type=int, metavar="I",
                    help="index of the moving end (as 'vesselgp ends' lists them), with --onto and --other-end")
     p.add_argument("--onto", metavar="OTHER",
-                   help="mesh of the vessel joined to: the held part, the moving ring and the target are found "
+                   help=f"mesh of the vessel joined to {MESH_FORMATS}: the held part, the moving ring and the target are "
+                        "found "
                         "from the end indices; caps are opened and the two are stitched into one mesh")
     p.add_argument("--other-end", metavar="J",
                    help="with --onto: the end index of the other vessel; with --other: vertex ids of its end "
@@ -552,10 +562,14 @@ def _add_join(sub, fmt):
                         "axis, GAP mm in front of it (for two vessels in unrelated coordinates; default: no move)")
     p.add_argument("--max-stretch", type=float, default=tol.JOIN_MAX_STRETCH,
                    help="with --onto: refuse a target that stretches the free part more (default: %(default)s)")
+    p.add_argument("--max-radius-ratio", type=float, default=tol.JOIN_MAX_RADIUS_RATIO,
+                   help="with --onto: refuse ends whose radii differ more (default: %(default)s; an end-to-end "
+                        "join needs vessels of similar calibre, the rims are stitched as they are)")
     p.add_argument("--moving-normal", type=float, nargs=3, metavar=("X", "Y", "Z"),
                    help="anchor across the moving end that lands on the target normal at angle 0 (default with "
                         "--onto: the world axis most across the end; otherwise the case's, or the fit's U)")
-    p.add_argument("--other", help="mesh of the vessel joined to (drawn in sand; stitched with --other-end ids)")
+    p.add_argument("--other", help=f"mesh of the vessel joined to {MESH_FORMATS}: drawn in sand; stitched with "
+                                  "--other-end ids")
     p.add_argument("--n-curve", type=int, default=tol.DEMO_CURVE_POINTS,
                    help="points of the energy curve (default: %(default)s)")
     p.add_argument("--range", type=float, default=tol.DEMO_CURVE_RANGE_DEG,
@@ -577,8 +591,8 @@ def _add_twist(sub, fmt):
                                    "branches are the landmarks, matched in order along the main vessel; each "
                                    "segment's twist is the change of their azimuths in the rotation-minimizing "
                                    "frame.", formatter_class=fmt, epilog=EPILOG["twist"])
-    p.add_argument("scan_a", help="first scan (the reference for lengths and direction)")
-    p.add_argument("scan_b", help="second scan (any pose and meshing)")
+    p.add_argument("scan_a", help=f"first scan {MESH_FORMATS}: the reference for lengths and direction")
+    p.add_argument("scan_b", help=f"second scan {MESH_FORMATS}: any pose and meshing")
     p.add_argument("--ends-a", type=int, nargs=2, metavar=("I", "J"),
                    help="main-vessel ends of scan A, from I (default: from the widest end to the tip with the most "
                         "landmarks)")
@@ -596,8 +610,11 @@ def _add_batch(sub, fmt):
     p = sub.add_parser("batch", help="run a cohort (a CSV manifest) on Dask, locally or on a cluster",
                        description="Run every row of a manifest (CSV with a 'mesh' column, or 'rest' and "
                                    "'deformed', or 'scan_a' and 'scan_b'; optional 'ends' and 'units') as Dask "
-                                   "tasks. Failures are recorded in their rows; a re-run skips rows already done "
-                                   "(keyed by the inputs' content hash).", formatter_class=fmt, epilog=EPILOG["batch"])
+                                   "tasks. Failures are recorded in their rows and every row is run; then, when "
+                                   "any row failed, one line on stderr says how many and of which kinds, and the "
+                                   "exit code is 1. A re-run skips rows already done (keyed by the inputs' content "
+                                   "hash). results.parquet needs pyarrow (the batch extra).", formatter_class=fmt,
+                       epilog=EPILOG["batch"])
     p.add_argument("manifest", help="the CSV manifest (paths relative to its folder)")
     p.add_argument("-o", "--output", default="vesselgp-batch", metavar="DIR",
                    help="output folder (default: ./%(default)s); an existing one is resumed")
@@ -621,7 +638,7 @@ def _add_clean(sub, fmt):
                        description="Repair a segmented vessel mesh and keep its largest piece; --smooth N "
                                    "then removes a voxel staircase (Taubin smoothing).",
                        formatter_class=fmt, epilog=EPILOG["clean"])
-    p.add_argument("mesh", help="input mesh")
+    p.add_argument("mesh", help=f"input mesh {MESH_FORMATS}")
     p.add_argument("--format", choices=("ply", "stl", "obj", "off", "vtp"), default="ply",
                    help="format of the cleaned mesh (default: ply)")
     p.add_argument("--smooth", type=int, default=0, metavar="N",
@@ -638,7 +655,7 @@ def _add_ends(sub, fmt):
                        description="List the ends of a vessel mesh (open boundary loops, flat caps or rounded "
                                    "ends), with the indices that --ends I J of fit and torsion take.",
                        formatter_class=fmt, epilog=EPILOG["ends"])
-    p.add_argument("mesh", help="vessel mesh (.stl .ply .obj .off .vtp)")
+    p.add_argument("mesh", help=f"vessel mesh {MESH_FORMATS}")
     _units_options(p)
     _common(p, "vesselgp-ends")
     p.set_defaults(func=cmd_ends)
@@ -714,6 +731,7 @@ OPTION_OF_KEYWORD = {
     "fit": {"ends": "--ends", "n_nodes": "--nodes", "root": "--root", "lam": "--lam"},
     "torsion": {"ends": "--ends"},
     "join": {"end": "--end", "other_end": "--other-end", "hold": "--hold", "max_stretch": "--max-stretch",
+             "max_radius_ratio": "--max-radius-ratio",
              "place": "--place",
              "moving_normal": "--moving-normal", "target_normal": "--target-normal"},
     "twist": {"ends_a": "--ends-a", "ends_b": "--ends-b"},

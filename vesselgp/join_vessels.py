@@ -20,10 +20,12 @@ Everything a join needs is derived from the two meshes and two end indices
   moving end's direction, projected into its plane, and ``target_normal`` is
   its image under the least rotation that takes the moving end's direction
   onto the target tangent, so a join that only bends the end is at angle 0;
-* before the search the join is checked for plausibility: an axial stretch of
-  the free part above ``max_stretch`` (or a compression below its inverse) or
-  a bend tighter than the radius allows
-  (curvature times radius above ``tolerances.JOIN_MAX_BEND``) is refused, a
+* before the search the join is checked for plausibility: ends whose radii differ by
+  more than ``max_radius_ratio`` (``tolerances.JOIN_MAX_RADIUS_RATIO``, 1.5: an end-to-end
+  anastomosis joins vessels of similar calibre; the stitch would leave a step in the wall),
+  an axial stretch of the free part above ``max_stretch`` (or a compression below its
+  inverse) or a bend tighter than the radius allows
+  (curvature times radius above ``tolerances.JOIN_MAX_BEND``) are refused, a
   stretch above ``tolerances.JOIN_STRETCH_WARN`` is warned about;
 * :func:`vesselgp.minimize_torsion` finds the end rotation of least torsion
   (Eq. 8) and the result is stitched to the other vessel
@@ -124,20 +126,37 @@ def _held(gc, hold, kept, n_user):
     return np.unique(out)
 
 
-def _plausible(problem, max_stretch):
-    """Refuse a target the vessel cannot reach without tearing or folding; warn when it is a stretch."""
+def _calibre(e_move, e_other, max_ratio):
+    """Refuse ends whose radii differ by more than ``max_ratio`` (an end-to-end join of unlike calibres)."""
+    r, ro = float(e_move.radius), float(e_other.radius)
+    ratio = max(r, ro) / min(r, ro)
+    if ratio > max_ratio:
+        raise ImplausibleJoinError(
+            f"the ends' radii differ {ratio:.2f}x (the moving end {r:.3g}, the other end {ro:.3g}; at most "
+            f"max_radius_ratio = {max_ratio:g}): an end-to-end join needs vessels of similar calibre, and the wall "
+            "would step at the seam; join an end of similar radius, or raise max_radius_ratio to join them anyway"
+        )
+
+
+def _plausible(problem, max_stretch, placed):
+    """Refuse a target the vessel cannot reach without tearing or folding; warn when it is a stretch.
+
+    Without a placement (``placed`` False) the refusals name ``place=`` too: two vessels in unrelated
+    coordinates need one (the stretch is then the distance between them)."""
     pl, gc = problem.placement, problem.gc
     st = pl.axial_stretch
+    place = "" if placed else ", or place the vessel facing the other end first (place=GAP, for two vessels in " \
+                              "unrelated coordinates)"
     if st < 1.0 / max_stretch:
         raise ImplausibleJoinError(
             f"the target needs the free part of the vessel compressed to {st:.2f}x its length along the axis "
             f"(at most 1/max_stretch = {1.0 / max_stretch:.2f}); the wall would buckle: move the other vessel "
-            "farther away or hold more (hold=)"
+            f"farther away or hold more (hold=){place}"
         )
     if st > max_stretch:
         raise ImplausibleJoinError(
             f"the target needs the free part of the vessel stretched {st:.2f}x along its axis (max_stretch "
-            f"{max_stretch:g}); move the other vessel closer, hold less (hold=) or raise max_stretch"
+            f"{max_stretch:g}); move the other vessel closer, hold less (hold=) or raise max_stretch{place}"
         )
     kr, s = pl.max_bend
     if kr > tol.JOIN_MAX_BEND:
@@ -238,7 +257,8 @@ class VesselJoin:
     """
 
     def __init__(self, V, F=None, end=None, V_other=None, F_other=None, other_end=None, *, hold=None,
-                 method="rod_arap", max_stretch=None, moving_normal=None, target_normal=None, place=None):
+                 method="rod_arap", max_stretch=None, moving_normal=None, target_normal=None, place=None,
+                 max_radius_ratio=None):
         t0 = time.perf_counter()
         (V, F), end, (V_other, F_other), other_end = mesh_arguments(
             (V, F, end, V_other, F_other, other_end), ("mesh", "end", "mesh", "end"), "join_vessels")
@@ -247,6 +267,9 @@ class VesselJoin:
         max_stretch = tol.JOIN_MAX_STRETCH if max_stretch is None else float(max_stretch)
         if not max_stretch >= 1.0:
             raise ImplausibleJoinError(f"max_stretch must be at least 1 (no stretch), got {max_stretch!r}")
+        max_ratio = tol.JOIN_MAX_RADIUS_RATIO if max_radius_ratio is None else float(max_radius_ratio)
+        if not max_ratio >= 1.0:
+            raise ImplausibleJoinError(f"max_radius_ratio must be at least 1 (equal radii), got {max_radius_ratio!r}")
         ends = vessel_ends(V, F)
         ends_o = vessel_ends(Vo, Fo)
         if len(ends) < 2:
@@ -260,6 +283,7 @@ class VesselJoin:
         W, G, kept, new_ends, j = _opened(V, F, ends, end, "end")
         Wo, Go, _, ends_o2, jo = _opened(Vo, Fo, ends_o, other_end, "other_end")
         e_move, e_other = new_ends[j], ends_o2[jo]
+        _calibre(e_move, e_other, max_ratio)
         self.tree = None
         if len(new_ends) == 2:
             gc = fit_generalized_cylinder(W, G, ends=(new_ends[1 - j], e_move))
@@ -273,7 +297,7 @@ class VesselJoin:
               else target_normal)
         self.problem = JoinProblem(W, G, fixed, np.asarray(e_move.loop, np.int64),
                                    Frame(e_other.center, tangent, tn), method=method, gc=gc, moving_normal=mn)
-        _plausible(self.problem, max_stretch)
+        _plausible(self.problem, max_stretch, place is not None)
         self.V, self.F, self.kept, self.ends, self.end = W, G, kept, tuple(new_ends), j
         self.other_V, self.other_F, self.other = Wo, Go, e_other
         self.other_loop = np.asarray(e_other.loop, np.int64)
@@ -342,7 +366,8 @@ class VesselJoin:
 
 
 def join_vessels(V, F=None, end=None, V_other=None, F_other=None, other_end=None, *, hold=None,
-                 method="rod_arap", max_stretch=None, moving_normal=None, target_normal=None, place=None):
+                 method="rod_arap", max_stretch=None, moving_normal=None, target_normal=None, place=None,
+                 max_radius_ratio=None):
     """Join end ``end`` of one vessel onto end ``other_end`` of another with the least torsion.
 
     Each vessel is its arrays ``V, F`` or one mesh object (``trimesh.Trimesh``,
@@ -384,6 +409,9 @@ def join_vessels(V, F=None, end=None, V_other=None, F_other=None, other_end=None
         other end's axis, this gap (mesh units, >= 0) in front of it: for two vessels in unrelated
         coordinates (two scans). The moving end's direction is turned by the least rotation onto
         minus the other end's. Default: no move (the vessels stay where they are).
+    max_radius_ratio : float, optional
+        Largest ratio of the two ends' radii joined (default ``tolerances.JOIN_MAX_RADIUS_RATIO``,
+        1.5): the rims are stitched as they are, so unlike calibres leave a step in the wall.
 
     See Also
     --------
@@ -407,7 +435,8 @@ def join_vessels(V, F=None, end=None, V_other=None, F_other=None, other_end=None
     OptionError
         A negative or non-finite ``place``.
     ImplausibleJoinError
-        The target needs too much stretch or compression, or too tight a bend.
+        The ends' radii differ by more than ``max_radius_ratio``, or the target needs too much
+        stretch or compression, or too tight a bend.
     InvalidMeshError
         The stitched mesh is not one connected piece.
 
@@ -421,4 +450,4 @@ def join_vessels(V, F=None, end=None, V_other=None, F_other=None, other_end=None
     """
     return VesselJoin(V, F, end, V_other, F_other, other_end, hold=hold, method=method,
                       max_stretch=max_stretch, moving_normal=moving_normal,
-                      target_normal=target_normal, place=place).solve()
+                      target_normal=target_normal, place=place, max_radius_ratio=max_radius_ratio).solve()

@@ -309,6 +309,11 @@ JOIN_STRETCH_WARN = 1.15
 JOIN_MAX_STRETCH = 1.3
 #: A join whose bent axis has curvature times radius above this is refused (the wall would fold).
 JOIN_MAX_BEND = 1.0
+#: Default largest ratio of the two joined ends' radii (``max_radius_ratio`` of :func:`vesselgp.join_vessels`):
+#: an end-to-end anastomosis joins vessels of similar calibre; a mismatch up to about 1.5:1 is taken up by
+#: dilating the smaller end, beyond it surgeons cut obliquely, spatulate or join end to side. The stitch joins
+#: the two rims as they are, so above this the joined wall would step by a third of the larger radius or more.
+JOIN_MAX_RADIUS_RATIO = 1.5
 #: A rounded tip is opened by removing the vertices beyond its centre plane within this many end radii.
 OPEN_DOME_REACH = 2.0
 

@@ -66,9 +66,12 @@ class TorsionProfile:
     total_twist : float
         ``alpha(1) - alpha(0)``, radians.
     twist_per_length : float
-        ``total_twist`` divided by the deformed axis length: radians per mesh unit.
+        ``total_twist`` divided by ``length``: radians per mesh unit.
     length : float
-        Arc length of the deformed axis, mesh units.
+        Arc length of the deformed axis, mesh units: the rest fit's axis length
+        (:attr:`GeneralizedCylinder.length`, as ``vesselgp fit`` reports it) times the
+        measured stretch of the Eq. 6 axis (deformed over rest recovery), so the rest mesh
+        itself gives the fit's length and a stretch of the vessel scales it.
     vertex_alpha : (n,) float64
         ``alpha`` at each vertex's ``s`` (for shading).
     centers : (K, 3) float64
@@ -207,7 +210,10 @@ class TorsionMeter:
         self._eq6 = spla.splu(N.tocsc())
         # rest angles by the same recovery
         self._theta0 = None
-        self._theta0 = self._parameterise(V_rest)[2]
+        rest_axis, _, self._theta0 = self._parameterise(V_rest)
+        # the deformed length is the rest fit's scaled by the Eq. 6 axis's own stretch: the Eq. 6 axis of an
+        # open end overshoots it by tenths of a millimetre (0.7 % on the real coronary), which cancels
+        self._length = rest.length / rest_axis.length
 
     def _recover_axis(self, V):
         """Eq. 6 with the rest correspondence, then the circle-fit correction."""
@@ -309,8 +315,8 @@ class TorsionMeter:
             dalpha=dalpha,
             energy=energy,
             total_twist=total,
-            twist_per_length=total / axis.length,
-            length=axis.length,
+            twist_per_length=total / (self._length * axis.length),
+            length=self._length * axis.length,
             vertex_alpha=np.interp(self.s0, sq, a_q),
             centers=centers,
             frames=frames,

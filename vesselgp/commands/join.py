@@ -267,7 +267,8 @@ def run_join(outdir, V, F, fixed, moving, target, *, other=None, name="join", n_
 
 
 def join_vessels_inputs(vessel, onto, end, other_end, *, hold=None, method="rod_arap", max_stretch=None,
-                        moving_normal=None, target_normal=None, units=None, scale=None, place=None):
+                        moving_normal=None, target_normal=None, units=None, scale=None, place=None,
+                        max_radius_ratio=None):
     """Read two vessel files and set up their join by end index (:class:`vesselgp.VesselJoin`).
 
     Everything that can refuse the join happens here, before any output is written.
@@ -280,7 +281,8 @@ def join_vessels_inputs(vessel, onto, end, other_end, *, hold=None, method="rod_
     V, F, uinfo = read_mesh_in(vessel, units, scale)
     Vo, Fo, _ = read_mesh_in(onto, units, scale)
     join = VesselJoin(V, F, end, Vo, Fo, other_end, hold=hold, method=method, max_stretch=max_stretch,
-                      moving_normal=moving_normal, target_normal=target_normal, place=place)
+                      moving_normal=moving_normal, target_normal=target_normal, place=place,
+                      max_radius_ratio=max_radius_ratio)
     return {"join": join, "inputs": [vessel, onto], "units": uinfo}
 
 

@@ -88,7 +88,7 @@ def run_torsion(rest, deformed, out, *, smoothing=None, ends=None, units=None, s
         e0, e1 = rest_fit.ends
         render_mesh(out("deformed_twist.png"), V1, F1, al, cbar_label=f"material twist \u03b1 (deg), 0 at end {e0}",
                     title=f"{Path(deformed).name}: material twist {np.degrees(prof.total_twist):+.1f}\u00b0 from end "
-                          f"{e0} to end {e1} over {prof.length:.3g}\u00a0mm; E\u00a0=\u00a0{prof.energy:.3g}\u00a0rad\u00b2 "
+                          f"{e0} to end {e1} over {prof.length:.4g}\u00a0mm; E\u00a0=\u00a0{prof.energy:.3g}\u00a0rad\u00b2 "
                           f"(Eq.\u00a08)",
                     caption=f"Colour: each cross-section's material twist \u03b1 about the axis against "
                             f"{Path(rest).name}, 0 (white) at end {e0}; red turns right-handed about the axis "
