@@ -798,8 +798,9 @@ def data_lambda(lam, rel_residual, K):
     ``tolerances.GC_LAMBDA_VERTICES`` data vertices per segment, and for any wall with fewer vertices per
     segment (a thin segmented branch, 6-8 edges around: each node's circle is loose, and the fixed point of
     an 8-point-around tube ran away in its bends with less). Above that, a node's circle-fit centre varies as
-    scatter^2 / vertices, and the weight follows, ``lam * (sigma / GC_LAMBDA_SCATTER)^2 *
-    GC_LAMBDA_VERTICES / n``, never above ``lam`` and never below ``GC_LAMBDA_FLOOR`` times it. A
+    the scatter squared, and the weight follows, ``lam * (sigma / GC_LAMBDA_SCATTER)^2``, never above ``lam``
+    and never below ``GC_LAMBDA_FLOOR`` times it (the number of vertices per segment only decides whether the
+    weight is lowered at all). A
     segmented or non-circular wall (sigma of several per cent of the radius) keeps ``lam``: its sections
     do not pin the centres, and without the weight an elliptic section's fit wandered off in bends. A
     clean, densely meshed circular tube (sigma 0.1-0.3 %) gets the floor: with ``lam`` its axis was pulled
