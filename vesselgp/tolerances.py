@@ -353,6 +353,10 @@ VIZ_MIN_EXTENT = 1e-12
 VIZ_SCALE_BAR_FRACTION = 0.2
 #: Largest width/height (and height/width) ratio of a picture of several scans (``twist_scans.png``).
 VIZ_PANELS_MAX_ASPECT = 2.5
+#: Least room (points) a placed label (a landmark's number, a segment's twist) keeps from every other text, marker
+#: and the edge of its plot (issue #49: no two texts of a figure overlap). 2 points is 3 pixels at VIZ_DPI: seen
+#: as a gap, and more than the glyph boxes' rounding between the dpi labels are placed at and the PNG's.
+VIZ_LABEL_GAP = 2.0
 #: Points of the energy curve (paper Fig. 4) written by the demo and `vesselgp join`.
 DEMO_CURVE_POINTS = 25
 #: Half-width (degrees) of the energy curve about the optimum.
@@ -537,6 +541,29 @@ REPORT_BACKGROUND = "rgb(176,181,190)"
 #: Where plotly's camera looks from, in units of the scene's half-extent (plotly's default is
 #: 1.25 each, which crops a long vessel).
 REPORT_CAMERA_EYE = (1.9, 1.9, 1.4)
+#: Largest size (bytes) of a ``report.html`` (issue #49: a cerebral tree's page was 6.3 MB, slow to open and to
+#: mail, 0.6 GB for a 100-case cohort). The page is for looking at; the full mesh, centre lines and figures are
+#: the run's files beside it. Of the 3 MB, plotly.js (4.8 MB as plotly ships it) takes 2.0 MB inlined gzipped
+#: and base64-encoded (unpacked by the browser: the page still needs no network), and at most about 1 MB is the
+#: run's: the view mesh (REPORT_MAX_FACES, about 0.5 MB), the figures (REPORT_FIGURE_COLORS, 0.1-0.2 MB each),
+#: the centre lines (REPORT_MAX_LINE_POINTS) and the numbers. A 40k-vertex tree's page is 2.5 MB.
+REPORT_MAX_BYTES = 3_000_000
+#: Faces of the 3D view's meshes in all. Meshes of more are decimated for the view to this many, shared in
+#: proportion to their faces (pymeshlab's quadric edge collapse, topology kept: a 40k-vertex tree's view mesh
+#: lies within about a tenth of an edge of its surface, tests/test_pages_read.py), their coordinates and shading sent in
+#: single precision (7 digits, far below what the decimation changes); meshes of at most this many faces are
+#: drawn as they are, every number exact. 20,000 faces are 0.4 MB of page decimated, 0.6 MB exact, and turn
+#: smoothly in a laptop's browser.
+REPORT_MAX_FACES = 20_000
+#: Centre lines of more points than this in all are simplified for the view (Ramer-Douglas-Peucker, each within
+#: REPORT_LINE_TOLERANCE of its points) and sent in single precision; fewer are drawn exactly as fitted (3000
+#: points: 0.1 MB of page).
+REPORT_MAX_LINE_POINTS = 3000
+#: ... within this fraction of the scene's bounding-box diagonal (0.14 pixels of the 720-pixel view).
+REPORT_LINE_TOLERANCE = 2e-4
+#: The figures embedded in a page are reduced to this many colours (a palette PNG, 3-4 times smaller; the
+#: full-colour PNG is the file beside the page, linked from the figure).
+REPORT_FIGURE_COLORS = 256
 
 # --- centre lines as VMTK has them (vesselgp.network) ----------------------------
 #: Centre-line points about every this many local (mean) radii along each branch (VMTK resamples

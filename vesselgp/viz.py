@@ -19,10 +19,15 @@ written atomically (temporary file in the target folder, then
   arc length in mm, with a caption that says what zero is and what the energy means.
 
 Angles are radians in the API and degrees in every figure. Titles and captions
-are wrapped to the figure's width, never cut.
+are wrapped to the figure's width, never cut. No two texts of a figure overlap
+(issue #49): labels on the data (numbered landmarks, segment twists) are placed
+by :func:`_place_labels` where they keep ``tolerances.VIZ_LABEL_GAP`` from every
+other text and marker, on a leader line when moved out from their point; a label
+with no room anywhere is named in the caption instead.
 """
 from __future__ import annotations
 
+import copy
 import logging
 from pathlib import Path
 
@@ -201,6 +206,151 @@ def _plot_with_caption(fig, width, height, title_axes, title, caption):
     _caption_text(fig, cap, 0.2, ch - 0.08)
     fig.tight_layout(rect=(0.0, ch / H, 1.0, 1.0))
     return fig
+
+
+#: Directions (right, up) a label is tried in about its point, in order: up-right first (where labels were
+#: always put), then the other diagonals, then straight up, down, right and left.
+_COMPASS = ((1, 1), (-1, 1), (1, -1), (-1, -1), (0, 1), (0, -1), (1, 0), (-1, 0))
+
+
+def _label_offsets(distances, directions=_COMPASS, rotations=(0,)):
+    """Candidate placements ``(dx, dy, ha, va, rotation)`` of a label about its point (offsets in points),
+    nearest first: each direction at each distance, the text aligned away from the point (a label to the
+    upper right has its lower-left corner there); ``rotations`` (degrees) each repeat the list."""
+    out = []
+    for rot in rotations:
+        for d in distances:
+            for ux, uy in directions:
+                f = d / np.hypot(ux, uy)
+                ha = "left" if ux > 0 else "right" if ux < 0 else "center"
+                va = "bottom" if uy > 0 else "top" if uy < 0 else "center"
+                out.append((f * ux, f * uy, ha, va, rot))
+    return out
+
+
+def _point_boxes(ax, xy, radius_pt):
+    """Display boxes of ``radius_pt`` points about data points ``xy`` (k, 2): markers a label must not hide."""
+    from matplotlib.transforms import Bbox
+
+    r = radius_pt * ax.figure.dpi / 72.0
+    P = ax.transData.transform(np.asarray(xy, float).reshape(-1, 2))
+    return [Bbox([[x - r, y - r], [x + r, y + r]]) for x, y in P if np.isfinite(x) and np.isfinite(y)]
+
+
+def _clear(e, boxes, gap):
+    """Whether display box ``e`` keeps ``gap`` pixels from every row ``(x0, y0, x1, y1)`` of ``boxes``."""
+    if not len(boxes):
+        return True
+    b = np.asarray(boxes, float).reshape(-1, 4)
+    return not np.any((e[0] < b[:, 2] + gap) & (b[:, 0] < e[2] + gap) & (e[1] < b[:, 3] + gap)
+                      & (b[:, 1] < e[3] + gap))
+
+
+def _rows(boxes):
+    """Display boxes (:class:`matplotlib.transforms.Bbox`) as rows ``(x0, y0, x1, y1)``."""
+    return [(b.x0, b.y0, b.x1, b.y1) for b in boxes]
+
+
+def _place_labels(ax, labels, taken, candidates, *, style, soft=(), leader_from=None, own=0.0):
+    """Annotate ``ax`` with labels that overlap no other text: each at the first of its candidate placements
+    where it lies inside the axes and clear of every box already taken.
+
+    The axes must be laid out (position, limits and aspect final): placements are measured in display
+    pixels. A placement is clear when its text (with the box drawn round it, ``style["bbox"]``) keeps
+    ``tolerances.VIZ_LABEL_GAP`` points from every box of ``taken`` (other texts, the legend, markers);
+    the candidates are tried first also clear of ``soft`` (e.g. points along a plotted line, which a label
+    had better not sit on; those within ``own`` points of the label's own point, under its marker, do not
+    count), then without it. A label placed at ``leader_from`` points or more from its point gets a thin
+    leader line to it. Each label's size is measured once (upright and turned); the
+    placement chosen is measured again as drawn.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    labels : sequence of ((2,) float, str)
+        Each label's point (data coordinates) and text.
+    taken : list of matplotlib.transforms.Bbox
+        Display boxes the labels must stay clear of; each label placed is appended.
+    candidates : sequence of (float, float, str, str, float)
+        ``(dx, dy, ha, va, rotation)`` from :func:`_label_offsets`, tried in order.
+    style : dict
+        Text properties of every label (``fontsize``, ``color``, ``bbox``, ...).
+    soft : sequence of matplotlib.transforms.Bbox
+    leader_from : float, optional
+    own : float
+
+    Returns
+    -------
+    list of int
+        The labels for which no candidate was clear (left out of the figure).
+    """
+    from matplotlib.text import Text
+    from matplotlib.transforms import Bbox
+
+    fig = ax.figure
+    renderer = fig.canvas.get_renderer()
+    ax.apply_aspect()
+    room = ax.get_window_extent(renderer)
+    px = fig.dpi / 72.0
+    gap = tol.VIZ_LABEL_GAP * px
+    box = style.get("bbox")
+    pad = 0.0 if box is None else (_box_pad(box) * style.get("fontsize", 10) + 0.5 * box.get("lw", 1.0)) * px
+    leader = {"arrowstyle": "-", "color": "0.25", "lw": 0.7, "shrinkA": 0.0, "shrinkB": 2.5}
+    hard, loose = _rows(taken), np.asarray(_rows(soft), float).reshape(-1, 4)
+    centres = 0.5 * (loose[:, :2] + loose[:, 2:])
+    inside = (room.x0 + gap, room.y0 + gap, room.x1 - gap, room.y1 - gap)
+    shift_x = {"left": 0.0, "center": 0.5, "right": 1.0}
+    shift_y = {"bottom": 0.0, "center": 0.5, "top": 1.0}
+
+    def annotate(xy, text, dx, dy, ha, va, rot):
+        far = leader_from is not None and np.hypot(dx, dy) >= leader_from
+        ann = ax.annotate(text, xy, xytext=(dx, dy), textcoords="offset points", ha=ha, va=va, rotation=rot,
+                          arrowprops=leader if far else None, **style)
+        ann.update_positions(renderer)
+        e = Text.get_window_extent(ann, renderer).padded(pad)
+        return ann, (e.x0, e.y0, e.x1, e.y1)
+
+    dropped = []
+    for i, (xy, text) in enumerate(labels):
+        size = {}
+        for rot in {c[4] for c in candidates}:  # the label's width and height, upright or turned
+            ann, e = annotate(xy, text, 0.0, 0.0, "left", "bottom", rot)
+            ann.remove()
+            size[rot] = (e[2] - e[0], e[3] - e[1])
+        x, y = ax.transData.transform(np.asarray(xy, float).reshape(1, 2))[0]
+        near = loose[np.hypot(centres[:, 0] - x, centres[:, 1] - y) > own * px]
+        placed = False
+        for avoid in ([hard + near.tolist()] if len(loose) else []) + [hard]:
+            for dx, dy, ha, va, rot in candidates:
+                w, h = size[rot]
+                x0 = x + dx * px - shift_x[ha] * (w - 2 * pad) - pad
+                y0 = y + dy * px - shift_y[va] * (h - 2 * pad) - pad
+                e = (x0, y0, x0 + w, y0 + h)
+                if not (e[0] >= inside[0] and e[1] >= inside[1] and e[2] <= inside[2] and e[3] <= inside[3]
+                        and _clear(e, avoid, gap)):
+                    continue
+                ann, e = annotate(xy, text, dx, dy, ha, va, rot)  # as drawn (the arithmetic above: to a pixel)
+                if (e[0] >= inside[0] - 1 and e[1] >= inside[1] - 1 and e[2] <= inside[2] + 1
+                        and e[3] <= inside[3] + 1 and _clear(e, avoid, gap - 1.0)):
+                    hard.append(e)
+                    taken.append(Bbox([[e[0], e[1]], [e[2], e[3]]]))
+                    placed = True
+                    break
+                ann.remove()
+            if placed:
+                break
+        if not placed:
+            dropped.append(i)
+    return dropped
+
+
+def _box_pad(bbox):
+    """The ``pad`` (fraction of the font size) of a text box's ``boxstyle`` such as ``"round,pad=0.2"``."""
+    for part in str(bbox.get("boxstyle", "square,pad=0.3")).split(",")[1:]:
+        key, _, value = part.partition("=")
+        if key.strip() == "pad":
+            return float(value)
+    return 0.3
 
 
 def _symmetric_range(values, vmin, vmax):
@@ -498,34 +648,58 @@ def _frame(poly, lines=(), labels=()):
     return x0 - pad, x1 + pad, y0 - pad, y1 + pad
 
 
+#: The boxed labels of a render (numbered landmarks) and where they are tried about their point (points):
+#: next to it in the eight directions, then further out on a leader line.
+_VIEW_LABEL_STYLE = {"fontsize": 10, "fontweight": "bold",
+                     "bbox": {"boxstyle": "round,pad=0.2", "fc": "white", "ec": "black", "lw": 0.8}}
+_VIEW_LABEL_PLACES = _label_offsets((10.0, 18.0, 28.0, 40.0, 55.0))
+
+
 def _draw_view(ax, poly, col, window, lines=(), alpha=None, labels=()):
-    """Screen polygons, lines and labels into ``ax`` at equal aspect, limited to ``window``, no axes drawn."""
+    """Screen polygons, lines and labels into ``ax`` at equal aspect, limited to ``window``, no axes drawn.
+
+    ``ax`` must have its final position: the labels (points marked, boxed texts) are placed by
+    :func:`_place_labels` so that none hides another or another's point. Returns the labels left out
+    for want of room (none in practice: the last candidates lie 55 points out).
+    """
     from matplotlib.collections import PolyCollection
 
     ax.add_collection(PolyCollection(poly, facecolors=col, edgecolors=col if alpha is None else "none",
                                      linewidths=0.6 if alpha is None else 0.0, antialiaseds=False, alpha=alpha))
     for L in lines:
         ax.plot(L[:, 0], L[:, 1], "-", color="black", lw=1.6, alpha=0.85, solid_capstyle="round")
-    for (x, y), text in labels:
-        ax.plot([x], [y], "o", color="black", ms=4)
-        ax.annotate(text, (x, y), xytext=(6, 6), textcoords="offset points", fontsize=10, fontweight="bold",
-                    bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "black", "lw": 0.8})
     x0, x1, y0, y1 = window
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     ax.set_aspect("equal", adjustable="box")
     ax.set_axis_off()
+    if not len(labels):
+        return []
+    P = np.array([p for p, _ in labels], float).reshape(-1, 2)
+    ax.plot(P[:, 0], P[:, 1], "o", color="black", ms=4, ls="none")
+    dropped = _place_labels(ax, labels, _point_boxes(ax, P, 2.5), _VIEW_LABEL_PLACES, style=_VIEW_LABEL_STYLE,
+                            leader_from=14.0)
+    return [labels[i][1] for i in dropped]
+
+
+def _left_out(caption, dropped):
+    """``caption`` with a sentence naming the labels left out of a render for want of room."""
+    log.warning("no room in the picture for label(s) %s: named in its caption instead", ", ".join(dropped))
+    note = f"Not marked for want of room: {', '.join(dropped)}."
+    return f"{caption} {note}" if caption else note
 
 
 def _render_figure(poly, col, title, colorbar, lines=(), alpha=None, labels=(), caption=None, unit=None,
-                   cbar_ticks=None):
+                   cbar_ticks=None, *, retried=False):
     """Figure of screen polygons at equal aspect, framed on their extent.
 
     ``colorbar`` is None or (ScalarMappable, label): vertical at the right of a
     tall picture, horizontal below a flat one; ``lines`` are screen polylines
     (k, 2) drawn on top; ``alpha`` makes the faces translucent; ``labels`` are
-    ``((2,) screen point, text)`` drawn boxed on top; ``caption`` is wrapped
-    below; ``unit`` (e.g. "mm") adds a scale bar in that unit at the bottom left.
+    ``((2,) screen point, text)`` drawn boxed on top, clear of each other
+    (:func:`_draw_view`; a label with no room is named in the caption instead);
+    ``caption`` is wrapped below; ``unit`` (e.g. "mm") adds a scale bar in that
+    unit at the bottom left.
     """
     x0, x1, y0, y1 = _frame(poly, lines, labels)
     w, h = x1 - x0, y1 - y0
@@ -550,7 +724,10 @@ def _render_figure(poly, col, title, colorbar, lines=(), alpha=None, labels=(), 
     xa = left + 0.5 * (W - left - right - wa)
     ya = bottom + 0.1
     ax = fig.add_axes([xa / W, ya / H, wa / W, ha / H])
-    _draw_view(ax, poly, col, (x0, x1, y0, y1), lines, alpha, labels)
+    dropped = _draw_view(ax, poly, col, (x0, x1, y0, y1), lines, alpha, labels)
+    if dropped and not retried:  # no room for some labels: drawn again, the caption naming them
+        return _render_figure(poly, col, title, colorbar, lines, alpha, labels, _left_out(caption, dropped), unit,
+                              cbar_ticks, retried=True)
     if title:
         fig.text(0.5, (H - 0.15) / H, title, ha="center", va="top", fontsize=_TITLE_SIZE, gid="title")
     _caption_text(fig, cap, 0.25, 0.1 + ch - 0.05)
@@ -626,7 +803,8 @@ def render_mesh(path, V, F, scalars=None, *, title=None, cbar_label="material tw
     alpha : float, optional
         Opacity of the faces in (0, 1]: a translucent mesh shows the lines inside it.
     labels : sequence of ((3,) float64, str)
-        Points marked and labelled on top (e.g. numbered landmarks).
+        Points marked and labelled on top (e.g. numbered landmarks), each label placed clear of the others
+        and of every marker (on a leader line when moved out; named in the caption when there is no room).
     caption : str, optional
         Text below the picture (wrapped): what the colours, lines and zero mean.
     scale_bar : str, optional
@@ -742,6 +920,17 @@ def render_panels(path, panels, *, title=None, caption=None, scale_bar="mm", max
     max_faces = _positive_int(tol.VIZ_MAX_FACES if max_faces is None else max_faces, "max_faces")
     dpi = tol.VIZ_DPI if dpi is None else dpi
     views = [_panel_view(p, max_faces) for p in panels]
+    fig, dropped = _panels_figure(copy.deepcopy(views), title, caption, scale_bar)
+    if dropped:  # no room for some labels: drawn again, the caption naming them
+        fig, _ = _panels_figure(views, title, _left_out(caption, dropped), scale_bar)
+    _save_png(fig, path, dpi, facecolor="white")
+    log.info("rendered %s (%d panels)", path, len(views))
+    return Path(path)
+
+
+def _panels_figure(views, title, caption, scale_bar):
+    """The figure of :func:`render_panels` (``views`` from :func:`_panel_view`, changed in place) and the labels
+    left out of it for want of room."""
     n = len(views)
     w = np.array([v["window"][1] - v["window"][0] for v in views])
     h = np.array([v["window"][3] - v["window"][2] for v in views])
@@ -785,6 +974,7 @@ def render_panels(path, panels, *, title=None, caption=None, scale_bar="mm", max
     fig.set_size_inches(W, H)
     top = H - th
     x = 0.5 * (W - cw)
+    dropped = []
     for v, wi, hi in zip(views, w, h):
         aw, ah = wi * k, hi * k
         if column:
@@ -794,7 +984,7 @@ def render_panels(path, panels, *, title=None, caption=None, scale_bar="mm", max
             xa, ya = x, top - pt - 0.5 * (chh - pt) - 0.5 * ah
             x += aw + gap
         ax = fig.add_axes([xa / W, ya / H, aw / W, ah / H])
-        _draw_view(ax, v["poly"], v["col"], v["window"], v["lines"], v["alpha"], v["labels"])
+        dropped += _draw_view(ax, v["poly"], v["col"], v["window"], v["lines"], v["alpha"], v["labels"])
         if v["title"]:
             fig.text((xa + 0.5 * aw) / W, (ya + ah + 0.08) / H, v["title"], ha="center", va="bottom",
                      fontsize=_PANEL_TITLE_SIZE, gid="panel title")
@@ -803,9 +993,7 @@ def render_panels(path, panels, *, title=None, caption=None, scale_bar="mm", max
     if scale_bar:
         _scale_bar(fig, 0.5 * (W - cw), 0.1 + ch + 0.12, k, float(w.max()), scale_bar)
     _caption_text(fig, cap, 0.25, 0.1 + ch - 0.05)
-    _save_png(fig, path, dpi, facecolor="white")
-    log.info("rendered %s (%d panels)", path, n)
-    return Path(path)
+    return fig, dropped
 
 
 def plot_energy_curve(path, angles, energies, *, optimum=None, evaluated=None, fit_quadratic=True,
@@ -988,7 +1176,13 @@ def compose_side_by_side(path, images, *, title=None):
 def plot_cumulative_twist(path, s, twist_deg, *, segment_deg=None, segment_uncertainty_deg=None,
                           cumulative_uncertainty_deg=None, xlabel="arc length along scan A (mm)", title=None,
                           caption=None):
-    """Cumulative twist against arc length, with each segment's value written on it.
+    """Cumulative twist against arc length, with each landmark's number and each segment's value written on it.
+
+    The labels overlap no other text (issue #49: landmarks a few millimetres apart): each landmark's number
+    goes below its point, else above or beside it; each segment's twist above or below its middle, clear of
+    the line where it can be, further out on a leader line or turned upright when there is no room nearer;
+    a segment's twist that finds no room at all is named with its value in the caption instead (landmarks
+    about 1.5 mm apart on a 60 mm plot).
 
     Parameters
     ----------
@@ -1017,26 +1211,82 @@ def plot_cumulative_twist(path, s, twist_deg, *, segment_deg=None, segment_uncer
     if s.shape != c.shape or len(s) < 2:
         raise VesselError(f"s and twist_deg must be equally long, with at least two points; got {s.shape}, {c.shape}")
     seg = np.diff(c) if segment_deg is None else np.asarray(segment_deg, float).reshape(-1)
+    pm = [""] * len(seg) if segment_uncertainty_deg is None else \
+        [f" \u00b1{u:.1f}" for u in np.asarray(segment_uncertainty_deg, float).reshape(-1)]
+    texts = [f"{v:+.1f}{pm[j]}\u00b0" for j, v in enumerate(seg)]
+    u = None if cumulative_uncertainty_deg is None else np.asarray(cumulative_uncertainty_deg, float).reshape(-1)
+    title = title or f"twist between the scans: total {c[-1] - c[0]:+.1f}\u00b0"
+    left_out = []
+    while True:  # a segment without room is named in the caption, which may move the others: until none more
+        fig, left = _cumulative_twist_figure(s, c, texts, u, xlabel, title, caption, left_out)
+        more = [j for j in left if j not in left_out]
+        if not more:
+            break
+        left_out = sorted(left_out + more)
+    _save_png(fig, path, tol.VIZ_DPI)
+    return Path(path)
+
+
+#: The labels of a cumulative-twist plot: landmark numbers (below their point first, then around it) and the
+#: segments' twists (boxed, above or below the segment's middle, then further out on a leader line, then upright).
+_NUMBER_STYLE = {"fontsize": 8, "color": "0.3"}
+_NUMBER_PLACES = _label_offsets((7.5, 14.0, 22.0), ((0, -1), (0, 1), (1, 0), (-1, 0), (1, -1), (-1, -1), (1, 1),
+                                                     (-1, 1)))
+_SEGMENT_STYLE = {"fontsize": 9, "bbox": {"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.85,
+                                          "lw": 0.0}}
+_SEGMENT_PLACES = _label_offsets((5.0, 15.0, 26.0, 38.0), ((0, 1), (0, -1))) + \
+    _label_offsets((5.0, 15.0, 26.0, 38.0), ((0, 1), (0, -1), (1, 0), (-1, 0)), rotations=(90,))
+
+
+def _line_samples(ax, x, y, step_pt=3.0):
+    """Display boxes (a pixel wide) every ``step_pt`` points along the polyline ``(x, y)`` of ``ax``."""
+    from matplotlib.transforms import Bbox
+
+    P = ax.transData.transform(np.column_stack([x, y]))
+    step = step_pt * ax.figure.dpi / 72.0
+    out = []
+    for a, b in zip(P[:-1], P[1:]):
+        k = max(int(np.hypot(*(b - a)) / step), 1)
+        for t in np.linspace(0.0, 1.0, k + 1):
+            q = a + t * (b - a)
+            out.append(Bbox([q - 0.5, q + 0.5]))
+    return out
+
+
+def _cumulative_twist_figure(s, c, texts, u, xlabel, title, caption, left_out):
+    """The figure of :func:`plot_cumulative_twist` with the segments ``left_out`` named in the caption instead of
+    on the line, and the segments for which this layout had no room."""
     fig = _figure((6.4, 4.0))
     ax = fig.subplots()
     ax.plot(s, c, "-o", color="C0", lw=1.8, ms=5)
-    if cumulative_uncertainty_deg is not None:
-        u = np.asarray(cumulative_uncertainty_deg, float).reshape(-1)
+    if u is not None:
         ax.fill_between(s, c - u, c + u, color="C0", alpha=0.15, lw=0, label="95 % interval")
         ax.legend(loc="best", fontsize=8)
-    pm = [""] * len(seg) if segment_uncertainty_deg is None else \
-        [f" \u00b1{u:.1f}" for u in np.asarray(segment_uncertainty_deg, float).reshape(-1)]
-    for j, v in enumerate(seg):
-        ax.annotate(f"{v:+.1f}{pm[j]}\u00b0", (0.5 * (s[j] + s[j + 1]), 0.5 * (c[j] + c[j + 1])), xytext=(0, 8),
-                    textcoords="offset points", ha="center", fontsize=9)
-    for j, (x, y) in enumerate(zip(s, c)):
-        ax.annotate(str(j + 1), (x, y), xytext=(0, -14), textcoords="offset points", ha="center", fontsize=8,
-                    color="0.3")
     ax.axhline(0.0, color="0.6", lw=0.8)
     ax.set_xlabel(xlabel)
     ax.set_ylabel("cumulative twist (deg)")
     ax.grid(True, alpha=0.3)
-    _plot_with_caption(fig, 6.4, 4.0, ax, title or f"twist between the scans: total {c[-1] - c[0]:+.1f}\u00b0",
-                       caption)
-    _save_png(fig, path, tol.VIZ_DPI)
-    return Path(path)
+    ax.margins(x=0.06, y=0.16)  # room for the labels above the highest point and beside the first and last
+    if left_out:
+        note = ("Not written on the line for want of room: "
+                + "; ".join(f"segment {j + 1} (landmarks {j + 1}-{j + 2}): {texts[j]}" for j in left_out) + ".")
+        caption = f"{caption} {note}" if caption else note
+    _plot_with_caption(fig, 6.4, 4.0, ax, title, caption)
+    # the layout is final: freeze the limits and the legend where they are, then place the labels clear of both
+    ax.set_xlim(ax.get_xlim())
+    ax.set_ylim(ax.get_ylim())
+    renderer = fig.canvas.get_renderer()
+    taken = _point_boxes(ax, np.column_stack([s, c]), 3.0)
+    leg = ax.get_legend()
+    if leg is not None:
+        e, box = leg.get_window_extent(renderer), ax.get_window_extent(renderer)
+        leg.set_loc(((e.x0 - box.x0) / box.width, (e.y0 - box.y0) / box.height))
+        taken.append(e)
+    line = _line_samples(ax, s, c)
+    _place_labels(ax, [((x, y), str(j + 1)) for j, (x, y) in enumerate(zip(s, c))], taken, _NUMBER_PLACES,
+                  style=_NUMBER_STYLE, soft=line, leader_from=12.0, own=4.0)
+    mids = [((0.5 * (s[j] + s[j + 1]), 0.5 * (c[j] + c[j + 1])), texts[j]) for j in range(len(texts))
+            if j not in left_out]
+    todo = [j for j in range(len(texts)) if j not in left_out]
+    left = _place_labels(ax, mids, taken, _SEGMENT_PLACES, style=_SEGMENT_STYLE, soft=line, leader_from=12.0)
+    return fig, [todo[i] for i in left]
