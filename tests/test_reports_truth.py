@@ -67,12 +67,14 @@ def _mesh_trace(traces):
 
 
 def _labels(traces):
-    """{text: (3,) position} of the page's text labels."""
+    """{name: (3,) position} of the page's text labels: the name on hover ("end 3"), whose last word is the
+    text drawn in the view (the number alone: whole names ran into each other, issue #49)."""
     out = {}
     for t in traces:
         if t["type"] == "scatter3d" and "text" in t:
             P = np.c_[_decode(t["x"]), _decode(t["y"]), _decode(t["z"])]
-            out.update({s: p for s, p in zip(t["text"], P)})
+            assert [h.split()[-1] for h in t["hovertext"]] == list(t["text"])
+            out.update({s: p for s, p in zip(t["hovertext"], P)})
     return out
 
 

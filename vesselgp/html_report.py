@@ -243,9 +243,12 @@ def _figure_html(meshes, lines, labels, title, period):
                                    name="axis" if len(lines) == 1 else f"branch {k}", hoverinfo="name",
                                    showlegend=False))
     if labels:
+        # the view shows each label's last word (an end's or a landmark's number): whole names ("landmark 12")
+        # ran into each other where ends or side branches lie a few millimetres apart; the name is on hover
         P = np.array([p for p, _ in labels], float)
         traces.append(go.Scatter3d(x=P[:, 0], y=P[:, 1], z=P[:, 2], mode="markers+text",
-                                   text=[t for _, t in labels], textfont=dict(size=16, color="#b00000"),
+                                   text=[t.split()[-1] for _, t in labels], hovertext=[t for _, t in labels],
+                                   textfont=dict(size=16, color="#b00000"),
                                    marker=dict(size=4, color="#b00000"), textposition="top center",
                                    hoverinfo="text", showlegend=False))
     fig = go.Figure(traces)
@@ -320,7 +323,8 @@ def write_report_html(path, title, meshes, *, lines=(), labels=(), figures=(), n
     lines : sequence of (k, 3) float64
         Axis polylines drawn over the meshes.
     labels : sequence of ((3,) float64, str)
-        Text at points (the ends' numbers).
+        Names at points ("end 3", "landmark 2"): the view shows each one's last word, the
+        whole name on hover.
     figures : sequence of str or os.PathLike
         PNG files embedded below the view (missing ones are left out).
     numbers : dict, optional

@@ -139,7 +139,7 @@ def run_fit(mesh, out, *, ends=None, root=None, n_nodes=None, lam=None, axis_for
                           figures=[out.dir / f"mesh_{shade}.png"], numbers=d,
                           caption=f"Length {gc.length:.4g} mm, mean radius {gc.mean_radius:.3g} mm. The surface is "
                                   "shaded by each vertex's distance to the fitted axis (the black line): a narrowing "
-                                  "(stenosis) shows dark, a bulge bright. Drag to turn, scroll to zoom.")
+                                  "(stenosis) shows dark, a bulge bright. Red numbers: the ends. Drag to turn, scroll to zoom.")
     return gc, d
 
 
@@ -238,5 +238,6 @@ def run_fit_tree(pm, mesh, out, uinfo, *, root=None, lam=None, axis_format="both
                           figures=[out.dir / "tree.png"], numbers=d,
                           caption=f"{len(tree.branches)} branches, {len(tree.junctions)} junctions, {len(tree.paths)} "
                                   f"paths from end {tree.root} ({which}). The surface is shaded by each vertex's "
-                                  "distance to the nearest branch axis (black lines). Drag to turn, scroll to zoom.")
+                                  "distance to the nearest branch axis (black lines). Red numbers: the ends (their names "
+                                  "on hover). Drag to turn, scroll to zoom.")
     return tree, to_json(d)

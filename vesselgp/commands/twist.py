@@ -174,7 +174,8 @@ def _twist_report(out, tw, d, sense):
                       figures=[out.dir / "twist_scans.png", out.dir / "twist_profile.png"], numbers=d,
                       caption=f"Scan A shaded by the twist from scan A to scan B accumulated along its main vessel "
                               f"(degrees; 0 at landmark 1, the first side branch from end {r.ends_a[0]}; positive: "
-                              f"{sense}); a side branch takes the value where it leaves. Total "
+                              f"{sense}); a side branch takes the value where it leaves. Red numbers: the "
+                              f"landmarks (side branches). Total "
                               f"{d['total_twist_deg']:+.1f} \u00b1 {d['cumulative_uncertainty_deg'][-1]:.1f} degrees "
                               f"(95 %) over {len(r.s_a)} landmarks; segments: "
                               + "; ".join(f"{j + 1}: {t:+.1f} \u00b1 {u:.1f}{' (unreliable)' if bad else ''}"
