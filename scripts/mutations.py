@@ -1544,8 +1544,8 @@ MUTATIONS = {
     ),
     "torsion_length_eq6_overshoot": (
         "vesselgp/torsion.py",
-        "        self._length = rest.length / rest_axis.length",
-        "        self._length = 1.0",
+        "        self._length_scale = rest.length / rest_axis.length",
+        "        self._length_scale = 1.0",
         ["tests/test_output_fields.py"],
     ),
     "batch_failures_exit_zero": (

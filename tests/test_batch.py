@@ -202,8 +202,10 @@ def test_without_pyarrow_the_summary_says_why_there_is_no_parquet(cohort, tmp_pa
     (cohort / "two.csv").write_text("\n".join((cohort / "meshes.csv").read_text().splitlines()[:3]) + "\n")
     out = tmp_path / "np"
     assert main(["batch", str(cohort / "two.csv"), "-o", str(out), "--workers", "0"]) == 0
-    text = capsys.readouterr().out
+    cap = capsys.readouterr()
+    text = cap.out
     assert batch.NO_PARQUET in text and "pip install 'vesselgp[batch]'" in text
+    assert cap.err == ""  # no row failed: nothing on stderr
     assert (out / "results.csv").exists() and not (out / "results.parquet").exists()
     monkeypatch.undo()
     assert main(["batch", str(cohort / "two.csv"), "-o", str(tmp_path / "p"), "--workers", "0"]) == 0

@@ -704,3 +704,30 @@ def test_the_calibre_guard_at_its_edge(ratio, refused):
                                                    rf"the other end {ro:.3g}; at most max_radius_ratio = 1\.5\)"):
         vg.VesselJoin(a.V, a.F, 1, b.V, b.F, 1, place=1.5)
     vg.VesselJoin(a.V, a.F, 1, b.V, b.F, 1, place=1.5, max_radius_ratio=1.6)
+
+
+@pytest.mark.parametrize("limit, ok", [(1.0, True), (0.99, False), (np.nan, False)])
+def test_the_radius_ratio_option_at_its_edge(limit, ok):
+    """max_radius_ratio is a ratio of the larger radius over the smaller: 1 (equal radii only) is an option,
+    below 1 or no number is refused as one. Two tubes of radius 2 (their ends' radii equal to round-off)."""
+    from vesselgp.synthetic import named_curve
+
+    a = synthetic_vessel(named_curve("straight", length=30.0), radius=2.0, n_around=32, ends="open", remesh=False)
+    b = synthetic_vessel(named_curve("straight", length=20.0), radius=2.0, n_around=32, ends="open", remesh=False)
+    if ok:
+        vg.VesselJoin(a.V, a.F, 1, b.V, b.F, 1, place=1.5, max_radius_ratio=limit * (1 + 1e-9))
+    else:
+        with pytest.raises(ImplausibleJoinError, match="max_radius_ratio must be at least 1"):
+            vg.VesselJoin(a.V, a.F, 1, b.V, b.F, 1, place=1.5, max_radius_ratio=limit)
+
+
+def test_a_placed_join_refused_for_stretch_does_not_ask_for_a_placement():
+    """Placed 10 in front of the other end, the free 27 of a 30-long tube must stretch (27 + 10) / 27 = 1.37x,
+    past max_stretch 1.3: refused, and the message names the stretch but not place= (it was given)."""
+    from vesselgp.synthetic import named_curve
+
+    a = synthetic_vessel(named_curve("straight", length=30.0), radius=2.0, n_around=32, ends="open")
+    b = synthetic_vessel(named_curve("straight", length=20.0), radius=2.0, n_around=32, ends="open")
+    with pytest.raises(ImplausibleJoinError, match=r"stretched 1\.3[67]x") as ei:
+        vg.VesselJoin(a.V, a.F, 1, b.V, b.F, 1, place=10.0)
+    assert "place=" not in str(ei.value)

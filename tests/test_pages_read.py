@@ -291,7 +291,8 @@ def test_twist_and_join_pages_are_under_the_budget(twist_run, join_run):
             b64 = re.search(rf'<a href="{re.escape(name)}"><img alt="{re.escape(name)}" '
                             r'src="data:image/png;base64,([^"]+)">', page).group(1)
             with Image.open(io.BytesIO(base64.b64decode(b64))) as im, Image.open(folder / name) as full:
-                assert im.size == full.size and len(im.getcolors(maxcolors=1 << 16) or ()) <= tol.REPORT_FIGURE_COLORS
+                assert im.size == full.size and im.mode == "P"  # a palette PNG of at most that many colours:
+                assert len(im.getcolors(maxcolors=tol.REPORT_FIGURE_COLORS)) <= tol.REPORT_FIGURE_COLORS  # else None
     traces = plotly_traces((join_run["dir"] / "report.html").read_text())
     assert sum(len(_decode(q["i"])) for q in traces if q["type"] == "mesh3d") <= tol.REPORT_MAX_FACES
 
@@ -338,6 +339,41 @@ def test_long_centre_lines_are_simplified_within_their_tolerance():
     assert all(np.array_equal(P, Q) for P, Q in zip((helix[:100], straight[:100]), few))
 
 
+def test_the_line_and_face_budgets_at_their_edges(monkeypatch):
+    """REPORT_MAX_LINE_POINTS points in all are drawn as given (double precision), one more are simplified
+    (single); REPORT_MAX_FACES faces in all keep every face, one more share the budget in proportion."""
+    from vesselgp.html_report import ViewMesh, face_budgets
+
+    monkeypatch.setattr(tol, "REPORT_MAX_LINE_POINTS", 300)
+    u = np.linspace(0.0, 1.0, 300)
+    helix = np.c_[10 * np.cos(12 * u), 10 * np.sin(12 * u), 60 * u]
+    assert view_lines([helix], 70.0)[0].dtype == np.float64
+    assert view_lines([np.vstack([helix, helix[-1] + 1.0])], 70.0)[0].dtype == np.float32
+    monkeypatch.setattr(tol, "REPORT_MAX_FACES", 100)
+    F = np.zeros((60, 3), np.int64)
+    V = np.zeros((3, 3))
+    assert face_budgets([ViewMesh(V, F, None), ViewMesh(V, F[:40], None)]) == [60, 40]
+    got = face_budgets([ViewMesh(V, F, None), ViewMesh(V, F[:41], None)])
+    assert sum(got) <= 100 and got == [int(100 * 60 / 101), int(100 * 41 / 101)]
+
+
+def test_a_page_over_the_size_budget_is_written_and_warned_about(tmp_path, monkeypatch, caplog):
+    """The warning's edge: a page of exactly REPORT_MAX_BYTES is quiet, one byte over names the budget."""
+    from vesselgp.html_report import ViewMesh, write_report_html
+
+    v = synthetic_vessel("arc", n_around=12, remesh=False)
+    path = tmp_path / "report.html"
+    write_report_html(path, "an arc", [ViewMesh(v.V, v.F, v.V[:, 2], label="z (mm)")])
+    size = path.stat().st_size
+    for limit, warned in ((size, False), (size - 1, True)):
+        caplog.clear()
+        monkeypatch.setattr(tol, "REPORT_MAX_BYTES", limit)
+        with caplog.at_level("WARNING", logger="vesselgp"):
+            write_report_html(path, "an arc", [ViewMesh(v.V, v.F, v.V[:, 2], label="z (mm)")])
+        assert path.stat().st_size == size
+        assert any("REPORT_MAX_BYTES" in r.getMessage() for r in caplog.records) == warned
+
+
 def test_an_embedded_figure_is_the_png_in_fewer_colours_and_smaller(tmp_path):
     from PIL import Image
 
@@ -354,5 +390,5 @@ def test_an_embedded_figure_is_the_png_in_fewer_colours_and_smaller(tmp_path):
 
 def test_the_budgets_live_in_tolerances_and_the_docs_state_them():
     docs = (Path(__file__).resolve().parent.parent / "docs" / "commands.md").read_text()
-    assert tol.REPORT_MAX_BYTES == 3_000_000 and "3 MB" in docs
+    assert f"{tol.REPORT_MAX_BYTES / 1e6:g} MB" in docs
     assert f"{tol.REPORT_MAX_FACES:,}" in docs

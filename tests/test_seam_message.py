@@ -134,11 +134,14 @@ def test_one_piece_open_along_a_seam_gets_the_same_message_from_every_call(tube)
     assert (s.duplicates, s.pieces, s.touching, s.pieces_merged) == (rings, 1, 0, 1)
     text = (f"mesh has open seams of {rings} duplicate vertices ({2 * (rings - 1)} boundary edges lie on other "
             "boundary edges); run vesselgp.clean_mesh (command line: vesselgp clean) to merge them")
+    # checked_mesh and GeodesicDistances are public too: a one-piece tear would send geodesics the long way round
     for fn in (lambda: vg.vessel_ends(V1, F1), lambda: vg.fit_generalized_cylinder(V1, F1),
-               lambda: vg.fit_vessel_tree(V1, F1)):
+               lambda: vg.fit_vessel_tree(V1, F1), lambda: checked_mesh(V1, F1), lambda: GeodesicDistances(V1, F1)):
         with pytest.raises(InvalidMeshError) as ei:
             fn()
         assert str(ei.value) == text
+    checked_mesh(tube.V, tube.F)  # the same tube untorn (two open rings, no seam) passes both
+    GeodesicDistances(tube.V, tube.F)
 
 
 def _axis_error(centers, truth):

@@ -694,7 +694,7 @@ def _write_results(out, columns, table):
         import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:
-        log.warning(NO_PARQUET)
+        log.info(NO_PARQUET)  # the report's notes carry it to the summary (stdout): stderr is for failures
         return files, (NO_PARQUET,)
     t = pa.Table.from_pylist([{k: r.get(k) for k in cols} for r in table])
     atomic_write(out / "results.parquet", lambda fh: pq.write_table(t, fh), binary=True)

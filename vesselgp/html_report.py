@@ -145,8 +145,7 @@ def _simplified(P, eps):
 def view_lines(lines, diagonal):
     """The centre lines the 3D view draws: as given when they hold at most ``tolerances.REPORT_MAX_LINE_POINTS``
     points in all, else each simplified to within ``tolerances.REPORT_LINE_TOLERANCE * diagonal`` of its points
-    (:func:`_simplified`, each finite run of a line with breaks on its own, a break kept as one NaN row) in
-    single precision.
+    (:func:`_simplified`) in single precision.
 
     Parameters
     ----------
@@ -162,19 +161,7 @@ def view_lines(lines, diagonal):
     if sum(len(P) for P in lines) <= tol.REPORT_MAX_LINE_POINTS:
         return lines
     eps = tol.REPORT_LINE_TOLERANCE * float(diagonal)
-    out = []
-    for P in lines:  # each finite run on its own; a break in the line (non-finite rows) kept as one NaN row
-        ok = np.all(np.isfinite(P), axis=1)
-        edges = np.flatnonzero(np.diff(np.r_[0, ok.astype(np.int8), 0]))  # where the finite runs start and stop
-        parts = []
-        for a, b in zip(edges[::2], edges[1::2]):
-            if parts or a > 0:
-                parts.append(np.full((1, 3), np.nan))
-            parts.append(_simplified(P[a:b], eps) if b - a > 2 else P[a:b])
-        if len(P) and not ok[-1]:
-            parts.append(np.full((1, 3), np.nan))
-        out.append((np.concatenate(parts) if parts else P).astype(np.float32))
-    return out
+    return [_simplified(P, eps).astype(np.float32) for P in lines]
 
 
 def _mesh_trace(go, m, max_faces, period):

@@ -141,8 +141,8 @@ def _calibre(e_move, e_other, max_ratio):
 def _plausible(problem, max_stretch, placed):
     """Refuse a target the vessel cannot reach without tearing or folding; warn when it is a stretch.
 
-    Without a placement (``placed`` False) the refusals name ``place=`` too: two vessels in unrelated
-    coordinates need one (the stretch is then the distance between them)."""
+    Without a placement (``placed`` False) the stretch and compression refusals name ``place=`` too:
+    two vessels in unrelated coordinates need one (the stretch is then the distance between them)."""
     pl, gc = problem.placement, problem.gc
     st = pl.axial_stretch
     place = "" if placed else ", or place the vessel facing the other end first (place=GAP, for two vessels in " \

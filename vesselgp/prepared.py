@@ -203,9 +203,9 @@ def checked_mesh(V, F, topology=None):
     Raises
     ------
     InvalidMeshError
-        Unreferenced vertices, several connected components (pieces that touch along open
-        seams of duplicate vertices are named so: :func:`vesselgp.mesh.seams.open_seams`), or
-        vertices used only by zero-area faces.
+        Unreferenced vertices, open seams of duplicate vertices (:func:`vesselgp.mesh.seams.open_seams`,
+        one piece or several), several connected components, or vertices used only by zero-area
+        faces.
     """
     _check_used(V, F)
     topo = mesh_topology(F, len(V)) if topology is None else topology
@@ -223,14 +223,15 @@ def _check_used(V, F):
 
 
 def _check_connected(V, topo):
-    """Raise :class:`InvalidMeshError` when the mesh has several connected pieces.
+    """Raise :class:`InvalidMeshError` when the mesh is torn along open seams or has several pieces.
 
-    Pieces that touch along open seams of duplicate vertices get the seams' message
-    (:func:`vesselgp.mesh.seams.refuse_seams`: merge them), genuinely separate ones this one.
+    Open seams of duplicate vertices (:func:`vesselgp.mesh.seams.refuse_seams`: merge them) are
+    refused whether they split the mesh into pieces or leave it one piece with extra boundary;
+    genuinely separate pieces get this message.
     """
+    refuse_seams(V, topo)
     ncomp = topo.vertex_components[0]
     if ncomp > 1:
-        refuse_seams(V, topo)
         raise InvalidMeshError(
             f"mesh has {ncomp} connected components; run vesselgp.clean_mesh (keeps the largest) "
             "or fit each vessel separately"

@@ -213,7 +213,7 @@ class TorsionMeter:
         rest_axis, _, self._theta0 = self._parameterise(V_rest)
         # the deformed length is the rest fit's scaled by the Eq. 6 axis's own stretch: the Eq. 6 axis of an
         # open end overshoots it by tenths of a millimetre (0.7 % on the real coronary), which cancels
-        self._length = rest.length / rest_axis.length
+        self._length_scale = rest.length / rest_axis.length
 
     def _recover_axis(self, V):
         """Eq. 6 with the rest correspondence, then the circle-fit correction."""
@@ -309,14 +309,15 @@ class TorsionMeter:
         a_q = spl(sq) - a0  # the smooth spline on 20 samples per node: linear interpolation is exact to ~1e-6 of a turn
         total = float(spl(1.0) - a0)
         centers, frames = axis.at(self._node_s(axis, nodes))
+        length = self._length_scale * axis.length
         return TorsionProfile(
             s=sK,
             alpha=alpha,
             dalpha=dalpha,
             energy=energy,
             total_twist=total,
-            twist_per_length=total / (self._length * axis.length),
-            length=self._length * axis.length,
+            twist_per_length=total / length,
+            length=length,
             vertex_alpha=np.interp(self.s0, sq, a_q),
             centers=centers,
             frames=frames,

@@ -27,7 +27,6 @@ with no room anywhere is named in the caption instead.
 """
 from __future__ import annotations
 
-import copy
 import logging
 from pathlib import Path
 
@@ -346,11 +345,9 @@ def _place_labels(ax, labels, taken, candidates, *, style, soft=(), leader_from=
 
 def _box_pad(bbox):
     """The ``pad`` (fraction of the font size) of a text box's ``boxstyle`` such as ``"round,pad=0.2"``."""
-    for part in str(bbox.get("boxstyle", "square,pad=0.3")).split(",")[1:]:
-        key, _, value = part.partition("=")
-        if key.strip() == "pad":
-            return float(value)
-    return 0.3
+    from matplotlib.patches import BoxStyle
+
+    return float(BoxStyle(bbox.get("boxstyle", "square")).pad)
 
 
 def _symmetric_range(values, vmin, vmax):
@@ -920,7 +917,8 @@ def render_panels(path, panels, *, title=None, caption=None, scale_bar="mm", max
     max_faces = _positive_int(tol.VIZ_MAX_FACES if max_faces is None else max_faces, "max_faces")
     dpi = tol.VIZ_DPI if dpi is None else dpi
     views = [_panel_view(p, max_faces) for p in panels]
-    fig, dropped = _panels_figure(copy.deepcopy(views), title, caption, scale_bar)
+    # _panels_figure wraps each view's title and widens its window in place: the first try works on copies of those
+    fig, dropped = _panels_figure([dict(v, window=list(v["window"])) for v in views], title, caption, scale_bar)
     if dropped:  # no room for some labels: drawn again, the caption naming them
         fig, _ = _panels_figure(views, title, _left_out(caption, dropped), scale_bar)
     _save_png(fig, path, dpi, facecolor="white")

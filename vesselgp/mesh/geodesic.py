@@ -66,9 +66,9 @@ class GeodesicDistances:
     Raises
     ------
     InvalidMeshError
-        Several connected components (their distances from each other are undefined; an
-        unreferenced vertex counts as one; pieces that touch along open seams of duplicate
-        vertices are named so, :func:`vesselgp.mesh.seams.open_seams`), or non-manifold or
+        Open seams of duplicate vertices (:func:`vesselgp.mesh.seams.open_seams`: one piece or
+        several; distances would go the long way round the tear), several connected components
+        (their distances from each other are undefined; an unreferenced vertex counts as one), or non-manifold or
         inconsistently oriented faces (boundary loops are then undefined).
     OptionError
         A ``topology`` of other faces, or ``areas`` not one per vertex.
@@ -90,8 +90,8 @@ class GeodesicDistances:
         if topo.n_vertices != len(V) or not np.array_equal(topo.F, F):
             raise OptionError(f"the topology given is of other faces ({topo.n_faces} faces, {topo.n_vertices} "
                               f"vertices; these are {len(F)} and {len(V)}); pass the topology of F or none")
+        refuse_seams(V, topo)  # a mesh torn along open seams (one piece or several): merge them
         if topo.vertex_components[0] > 1:
-            refuse_seams(V, topo)  # pieces that touch along open seams: merge them
             raise InvalidMeshError(
                 f"mesh has {topo.vertex_components[0]} connected components (unreferenced vertices count "
                 "as one each), so geodesic distances between them are undefined; run vesselgp.clean_mesh "
