@@ -7,12 +7,14 @@ is the generator's (``GroundTruth.radii``), never the fit's.
 """
 from __future__ import annotations
 
+from types import SimpleNamespace as NS
+
 import numpy as np
 import pytest
 
 import vesselgp
 from vesselgp import tolerances as tol
-from vesselgp.bulges import bulges
+from vesselgp.bulges import bulges, tree_bulges, wall_cover
 from vesselgp.synthetic import synthetic_vessel
 
 S = np.linspace(0.0, 1.0, 1601)
@@ -98,3 +100,43 @@ def test_a_stenosed_synthetic_vessel_has_no_bulge():
     """Two stenoses to 60 % of the radius: the vessel between them is not a bulge."""
     v = synthetic_vessel("arc", radius=1.5, bulges=[(0.35, 0.03, -0.4), (0.65, 0.03, -0.4)])
     assert vesselgp.fit_vessel_tree(v.V, v.F).bulges == ()
+
+
+def _walled_path(cover, peak_cover=None):
+    """A straight path of length 40 with a fusiform bulge of 1.6 at its middle (radius 1 + 0.6 exp(-((a - 20)
+    / 1.5)^2)) and wall vertices on rings every 0.1, 60 per ring spread evenly over ``cover`` of the circle (so
+    their largest gap in angle leaves exactly ``cover``); ``peak_cover`` within 2 of the peak."""
+    n = 801
+    s = np.linspace(0.0, 1.0, n)
+    r = 1.0 + 0.6 * np.exp(-((40.0 * s - 20.0) / 1.5) ** 2)
+    ring_s = np.arange(0.0, 40.0001, 0.1) / 40.0
+    vs, th = [], []
+    for q in ring_s:
+        c = peak_cover if peak_cover is not None and abs(40.0 * q - 20.0) <= 2.0 else cover
+        th.append(np.linspace(0.0, 2.0 * np.pi * c, 60))
+        vs.append(np.full(60, q))
+    vs, th = np.concatenate(vs), np.concatenate(th)
+    return NS(dense_s=s, dense_points=np.c_[40.0 * s, np.zeros((n, 2))], length=40.0,
+              radius_at=lambda q: np.interp(np.atleast_1d(q), s, r),
+              vertex_s=vs, vertex_theta=th - np.pi, vertex_weight=np.ones(len(vs)))
+
+
+def test_wall_cover_is_the_share_of_the_circle_the_wall_spans():
+    """Rings spread over 0.3, 0.75 and the whole circle (60 points: a gap of 1/60 is left) read that share."""
+    for c, want in ((0.3, 0.3), (0.75, 0.75), (59 / 60, 59 / 60)):
+        p = _walled_path(c)
+        np.testing.assert_allclose(wall_cover(p, np.array([0.25, 0.5]), np.array([1.0, 1.0])), want, atol=1e-12)
+    p = _walled_path(1.0)  # a window holding no vertex, or one, covers nothing
+    assert wall_cover(p, np.array([0.5 + 0.05 / 40]), np.array([1e-3]))[0] == 0.0  # between two rings
+
+
+def test_a_peak_is_a_bulge_only_where_the_wall_measures_it_all_round_at_the_edge():
+    """The fusiform bulge (1.6 over 1) measured by a wall all round is one bulge; with the wall within 2 of its
+    peak spanning 1.05x TREE_BULGE_MIN_COVER of the circle still one, at 0.95x none (the far side of a junction's
+    flare, issue #47); wall=False (an exact axis with no wall) judges the radius alone."""
+    m = tol.TREE_BULGE_MIN_COVER
+    assert len(tree_bulges([_walled_path(1.0)])) == 1
+    (b,) = tree_bulges([_walled_path(1.0, 1.05 * m)])
+    assert abs(b.s_peak - 0.5) < 0.01 and abs(b.peak_radius - 1.6) < 0.01
+    assert tree_bulges([_walled_path(1.0, 0.95 * m)]) == ()
+    assert len(tree_bulges([_walled_path(1.0, 0.95 * m)], wall=False)) == 1

@@ -116,7 +116,7 @@ def test_a_sacs_neighbour_radius_on_a_tapered_tube_is_the_tubes_radius_at_its_ne
     that place (the documented ``s_range``), on the path's normalised arc length."""
     V, F, pm = wide_sac
     axis = _straight_axis(TL, 0.0, _tube_radius)  # s = 0 at the wide end
-    (b,) = tree_bulges([axis], pm.sacs, (V, pm.topology.adjacency))
+    (b,) = tree_bulges([axis], pm.sacs, (V, pm.topology.adjacency), wall=False)
     rs = pm.sacs[0][2]
     assert b.paths == (0,) and len(b.wall) > 0
     assert abs(b.peak[0] - XC) < 0.3 * _tube_radius(XC)
@@ -285,7 +285,7 @@ def test_bulges_of_a_y_on_exact_paths_trunk_once_on_both_daughter_and_sac_on_the
     t, pm = y_tree
     paths = [_y_path(t, t.PA, t.aA, t.rA), _y_path(t, t.PB, t.aB, t.rB)]
     assert len(pm.sacs) == 1
-    found = tree_bulges(paths, pm.sacs, (pm.V, pm.topology.adjacency))
+    found = tree_bulges(paths, pm.sacs, (pm.V, pm.topology.adjacency), wall=False)
     assert len(found) == 3
     trunk = min(found, key=lambda b: np.linalg.norm(b.peak - [0, 0, 12.0]))
     assert sorted(trunk.paths) == [0, 1] and len(trunk.wall) == 0

@@ -14,11 +14,14 @@ A bulge peaks at least ``tolerances.TREE_BULGE_RATIO`` times its neighbouring ra
 samples around the peak at least ``tolerances.TREE_BULGE_EDGE`` times that radius (1.3: on the real meshes
 the sacs and the iliac aneurysms stand 1.33-1.72 above their neighbours, tubes, stenoses and thin
 noisy tips at most 1.26). The first radius of a path at either end is not judged (a cap's or a
-tip's region).
+tip's region). A peak is a bulge only where the wall measures its radius: the wall vertices within a
+radius of it cover at least ``tolerances.TREE_BULGE_MIN_COVER`` of the circle about the axis (their
+largest gap in angle is less than the rest). Where a sibling branch leaves beside a junction, a path
+keeps a few vertices on the far side (issue #47: 4 vertices on 12 % of the circle made a junction of the
+XCAT coronary tree a bulge of 1.38; the real sacs and aneurysms are measured all round, 79-99 %).
 """
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -71,7 +74,53 @@ class Bulge:
         return self.peak_radius / self.neighbour_radius
 
 
-def bulges(s, radius, length, *, reach, margin=(0.0, 0.0)):
+def _nan_medians(rows):
+    """``np.nanmedian(rows, axis=1)`` (NaN for a row of NaN only), without numpy's masked-array path for the
+    rows with NaN (sorted, NaN last: the middle of each row's numbers), 20x faster on a tree's paths."""
+    out = np.empty(len(rows))
+    gap = np.isnan(rows).any(axis=1)
+    if (~gap).any():
+        out[~gap] = np.median(rows[~gap], axis=1)
+    if gap.any():
+        S = np.sort(rows[gap], axis=1)
+        k = (~np.isnan(S)).sum(axis=1)
+        lo, hi = np.maximum(k - 1, 0) // 2, np.maximum(k, 1) // 2
+        rr = np.arange(len(S))
+        out[gap] = np.where(k > 0, 0.5 * (S[rr, lo] + S[rr, hi]), np.nan)
+    return out
+
+
+def wall_cover(gc, s, half):
+    """The share of the circle about the axis that the wall vertices of ``gc`` with weight within ``half`` arc
+    length of each ``s`` cover: one minus the largest gap between their angles over 2 pi (0 with fewer than two).
+
+    Parameters
+    ----------
+    gc : GeneralizedCylinder
+    s : (q,) float64
+        Normalised arc length.
+    half : (q,) float64
+        Half the window, in mesh units.
+
+    Returns
+    -------
+    (q,) float64
+    """
+    data = gc.vertex_weight > 0
+    vs, th = gc.vertex_s[data], gc.vertex_theta[data]
+    order = np.argsort(vs)
+    vs, th = vs[order], th[order]
+    lo = np.searchsorted(vs, s - half / gc.length, side="left")
+    hi = np.searchsorted(vs, s + half / gc.length, side="right")
+    out = np.zeros(len(s))
+    for q, (a, b) in enumerate(zip(lo, hi)):
+        if b - a >= 2:
+            t = np.sort(th[a:b])
+            out[q] = 1.0 - max(float(np.max(np.diff(t))), float(t[0] + 2.0 * np.pi - t[-1])) / (2.0 * np.pi)
+    return out
+
+
+def bulges(s, radius, length, *, reach, margin=(0.0, 0.0), measured=None):
     """Stretches of an axis where the radius stands above its neighbours (see the module notes).
 
     Parameters
@@ -86,6 +135,9 @@ def bulges(s, radius, length, *, reach, margin=(0.0, 0.0)):
         Arc length of the window on each side (the neighbouring radius is its median).
     margin : (float, float), optional
         Arc length at the start and at the end that is not judged.
+    measured : callable, optional
+        Of sample indices (k,) int64, whether the wall measures the radius there ((k,) bool; asked about
+        each bulge's peak): a peak that it does not measure is no bulge. Default: every sample is measured.
 
     Returns
     -------
@@ -111,10 +163,8 @@ def bulges(s, radius, length, *, reach, margin=(0.0, 0.0)):
     w = max(int(round(reach / (float(length) * (s[1] - s[0])))), 1) if n > 1 else 1
     pad = np.concatenate([np.full(w, np.nan), r, np.full(w, np.nan)])
     win = sliding_window_view(pad, w)  # win[j] = pad[j:j + w]
-    with warnings.catch_warnings():  # a window wholly past an end is all NaN: its median is NaN
-        warnings.simplefilter("ignore", RuntimeWarning)
-        before = np.nanmedian(win[:n], axis=1)  # r[i - w], ..., r[i - 1]
-        after = np.nanmedian(win[w + 1:w + 1 + n], axis=1)  # r[i + 1], ..., r[i + w]
+    before = _nan_medians(win[:n])  # r[i - w], ..., r[i - 1]
+    after = _nan_medians(win[w + 1:w + 1 + n])  # r[i + 1], ..., r[i + w]
     base = np.fmax(before, after)
     arc = s * float(length)
     judged = (arc >= margin[0]) & (float(length) - arc >= margin[1]) & np.isfinite(base)
@@ -123,6 +173,8 @@ def bulges(s, radius, length, *, reach, margin=(0.0, 0.0)):
     for i0, i1 in true_runs(q >= tol.TREE_BULGE_RATIO):
         k = i0 + int(np.argmax(q[i0:i1 + 1]))
         if covered[k]:  # a second peak within the first's stretch
+            continue
+        if measured is not None and not measured(np.array([k]))[0]:  # a peak the wall does not measure
             continue
         wide = r >= tol.TREE_BULGE_EDGE * base[k]  # its stretch: wider than EDGE x the peak's neighbours
         a = k - int(np.argmin(wide[k::-1])) + 1 if not wide[:k + 1].all() else 0
@@ -201,7 +253,7 @@ def _nearest_samples(V, paths):
     return d, path[i], np.concatenate([p.dense_s for p in paths])[i]
 
 
-def tree_bulges(paths, sacs=(), mesh=None):
+def tree_bulges(paths, sacs=(), mesh=None, *, wall=True):
     """The bulges of a tree's paths, one per place (a bulge on a shared trunk is on several paths).
 
     Parameters
@@ -221,6 +273,9 @@ def tree_bulges(paths, sacs=(), mesh=None):
         neck), ``s_range`` the sac's diameter about it.
     mesh : ((n, 3) float64, (n, n) sparse), optional
         The vertices and vertex adjacency of the mesh; needed when ``sacs`` is not empty.
+    wall : bool
+        Whether a peak must be measured by the path's wall data (:func:`wall_cover`, the module notes);
+        False for exact axes given with their radius and no wall.
 
     Returns
     -------
@@ -231,7 +286,11 @@ def tree_bulges(paths, sacs=(), mesh=None):
     for k, p in enumerate(paths):
         r = p.radius_at(p.dense_s)
         reach = tol.TREE_BULGE_REACH * float(np.median(r))
-        for s0, s1, sp, rp, rb in bulges(p.dense_s, r, p.length, reach=reach, margin=(float(r[0]), float(r[-1]))):
+        def measured(i, p=p, r=r):
+            return wall_cover(p, p.dense_s[i], r[i]) >= tol.TREE_BULGE_MIN_COVER
+
+        for s0, s1, sp, rp, rb in bulges(p.dense_s, r, p.length, reach=reach, margin=(float(r[0]), float(r[-1])),
+                                         measured=measured if wall else None):
             peak = p.dense_points[np.argmin(np.abs(p.dense_s - sp))]  # sp is one of the dense samples
             same = next((i for i, b in enumerate(found)
                          if np.linalg.norm(b.peak - peak) <= min(b.peak_radius, rp)), None)

@@ -644,7 +644,7 @@ def fixed_point(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_i
     return fixed_points([problem], lam=lam, mu=mu, max_iter=max_iter, what=what)[0]
 
 
-def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit", singular="raise"):
+def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit", singular="raise", unsettled=None):
     """Iterate Eq. 3 and Eq. 5 of independent problems (a tree's branches) to their fixed points.
 
     The problems run in lock step on one :class:`vesselgp.axis.AxisStack`: each iteration
@@ -669,6 +669,11 @@ def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit"
         A problem whose system is singular (a stretch with no wall around it) raises
         :class:`NotTubularError`, or (``"stop"``, a tree's branches) stops there with
         ``singular`` set, ``converged`` False and an infinite ``step``.
+    unsettled : (float, int), optional
+        ``(radii, n)``: a problem whose axis has moved more than ``radii`` of its radius scale in
+        each of its last ``n`` iterations stops there, unconverged (a tree's branch that wanders
+        rather than settles, whose axis is then the centre line: :func:`vesselgp.fit_vessel_tree`).
+        Default: every problem runs to ``max_iter``.
 
     Returns
     -------
@@ -683,6 +688,7 @@ def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit"
     running = list(range(len(problems)))
     stack = None
     polishing, polished = set(), set()
+    moving = [0] * len(problems)  # iterations in a row that moved more than unsettled[0] radii
     for i in range(max_iter + 1):
         if i == max_iter:  # past the cap only the polish of problems that converged on it
             running = [b for b in running if b in polishing]
@@ -698,9 +704,13 @@ def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit"
                 st = replace(st, converged=states[b].converged, count=states[b].count, step=states[b].step)
             states[b] = st
         windows = None
+        if unsettled is not None:
+            for b in running:
+                moving[b] = moving[b] + 1 if states[b].step > unsettled[0] * problems[b].rscale else 0
         # a converged problem gets one more circle fit with data_lambda's weight (issue #48)
         polishing = {b for b in running if states[b].converged and not states[b].singular and b not in polished}
-        running = [b for b in running if b in polishing or not (states[b].converged or states[b].singular)]
+        running = [b for b in running if b in polishing or not (states[b].converged or states[b].singular
+                                                               or (unsettled is not None and moving[b] >= unsettled[1]))]
         if not running:
             return states
     log.debug("%d %s(s) stopped at %d iterations, unconverged", len(running), what, max_iter)

@@ -590,8 +590,8 @@ BRANCH_PATH_RADII = 2.0
 
 
 # --- medial centre lines (vesselgp.centerlines) ---
-#: A surface of at most this many vertices is tessellated whole for its Voronoi vertices (qhull takes
-#: them in about a second). Thinning moves the Voronoi vertices a little, and where two junctions lie
+#: A surface of at most this many vertices is tessellated whole for its Voronoi vertices (TetGen takes
+#: them in about 0.1 s). Thinning moves the Voronoi vertices a little, and where two junctions lie
 #: about TREE_JUNCTION_MERGE radii apart (the arches of ../shared/data/real) that decides whether they
 #: are one junction zone: the real meshes keep the topology they had.
 MEDIAL_ALL_POINTS = 16000
@@ -609,6 +609,10 @@ MEDIAL_WINDING_ORDER = 1
 #: 3.1M circumcentres of a 300k-vertex tree, with the same inside / outside decisions there, on every real
 #: mesh and on the synthetic trees: its error stayed under 0.1 of the 1/2 they are judged by).
 MEDIAL_WINDING_ACCURACY = 1.5
+#: The surface's points span no volume (no Delaunay tetrahedra) when the least singular value of their
+#: centred coordinates is below this times the largest (TetGen, whose own test is on its first tetrahedron,
+#: failed on such points at 1e-6 and tessellated them from 3e-6 up).
+MEDIAL_FLAT_POINTS = 1e-5
 #: A tetrahedron is flat (no circumcentre) when 2 b.(c x d) is below this times its longest edge cubed.
 MEDIAL_FLAT_TET = 1e-12
 #: Least cost of a Voronoi edge (length over radius), so that co-spherical tetrahedra (one
@@ -673,6 +677,11 @@ TREE_MEDIAL_DEPARTURE = 0.5
 #: the real arches and coronary tree, where a rigid motion of the mesh then moved a junction 5 mm)
 #: is no fit: its axis is the centre line throughout (a medial zone over the whole branch).
 TREE_UNSETTLED = 0.05
+#: A branch whose axis has moved more than TREE_UNSETTLED radii in each of this many iterations in a row
+#: stops there and is given the centre line (issue #47: the wandering branches of the real arches, XCAT
+#: tree and pulmonary artery ran to the iteration cap, most of their fits' time, to the same outcome).
+#: On the real meshes a branch that settles does so within 11 iterations of its last step above.
+TREE_UNSETTLED_ITERATIONS = 12
 #: ... over the stretch where it departs, widened by this many radii on either side ...
 TREE_MEDIAL_MARGIN = 1.0
 #: ... and blended back into the fitted axis over this many radii beyond that (a smoothstep).
@@ -770,6 +779,10 @@ TREE_BULGE_EDGE = 1.1
 #: ... whose peak is at least this many times it (real sacs and iliac aneurysms 1.33-1.72, tubes,
 #: stenoses and thin noisy tips at most 1.26).
 TREE_BULGE_RATIO = 1.3
+#: A radius is judged only where the wall vertices within one radius of its sample cover at least this
+#: share of the circle about the axis (one side of it measures no radius: a junction's far wall covered
+#: 12 %, the real sacs and aneurysms 79-99 %).
+TREE_BULGE_MIN_COVER = 0.5
 
 # --- a fit checked against its mesh (vesselgp.checks) ---
 #: A path's first and last axis points lie within this many radii of the centres of its ends (VMTK's

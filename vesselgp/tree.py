@@ -114,8 +114,10 @@ class VesselTree:
         How each branch's axis was found: ``"converged"`` (the Eq. 3 fixed point settled within
         ``tolerances.GC_CONVERGENCE`` radii), ``"stopped"`` (it reached the iteration cap still moving
         less than ``tolerances.TREE_UNSETTLED`` radii per iteration: its ``last_step`` says how much)
-        or ``"centre line"`` (it did not settle, or its system was singular, a stub a few edges
-        around: the axis is the lumen's centre line, its radius refitted on it). Every kind passed
+        or ``"centre line"`` (it did not settle: it still moved more than ``tolerances.TREE_UNSETTLED`` radii
+        at the cap, or in each of ``tolerances.TREE_UNSETTLED_ITERATIONS`` iterations in a row, where it
+        stops; or its system was singular, a stub a few edges around: the axis is the lumen's centre line,
+        its radius refitted on it). Every kind passed
         the checks against the mesh.
     checks : FitChecks
         The fit checked against its mesh (:func:`vesselgp.checks.fit_checks`): every path's gap to
@@ -517,25 +519,10 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     caps, leaf_tip, problems, ids = _branch_problems(V, area, ends, root, br)
     # the branches' fixed points in lock step (one vectorised pass per iteration over all of them)
     fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit",
-                        singular="stop")
-    raw, medial, how = [], [], []
-    for b, (idx, it, p) in enumerate(zip(ids, fits, problems)):
-        how.append("converged" if it.converged else "stopped" if it.step <= tol.TREE_UNSETTLED * p.rscale
-                   else "centre line")
-        if how[-1] != "centre line":
-            nodes, zones = medial_zones(it.nodes, br.lines[b], br.line_radius[b], p.rscale)
-        else:  # a fixed point still wandering (a stub on its junction's flare), or one whose system is
-            # singular (a stub with too few vertices around some of its nodes), is no fit: the centre line
-            log.debug("tree branch %d: its fit %s; its axis is the lumen's centre line", b,
-                      "is singular (too few vertices around it)" if it.singular else
-                      f"still moves {it.step / p.rscale:.2g} radii per iteration")
-            nodes = resample_arclength(br.lines[b], len(it.nodes))
-            zones = np.array([[0.0, chord_length(br.lines[b])[-1]]])
-            if it.radii is None:  # singular from the first iteration: the inscribed radius along the line
-                a = chord_length(br.lines[b])
-                it = replace(it, radii=np.interp(np.linspace(0.0, a[-1], len(it.nodes)), a, br.line_radius[b]))
-        raw.append(_RawBranch(idx=idx, nodes=nodes, s=it.s, it=it, rscale=p.rscale))
-        medial.append(br.lines[b][np.searchsorted(chord_length(br.lines[b]), zones)])  # (z, 2, 3) ends
+                        singular="stop", unsettled=(tol.TREE_UNSETTLED, tol.TREE_UNSETTLED_ITERATIONS))
+    how = [_branch_fit(it, p) for it, p in zip(fits, problems)]
+    firsts = [_raw_branch(b, idx, it, p, br, h) for b, (idx, it, p, h) in enumerate(zip(ids, fits, problems, how))]
+    raw, medial = [r for r, _ in firsts], [m for _, m in firsts]
     junctions, junction_branch, nodes, zone = _junctions(raw, br.parent, br.junctions, br.junction_radius, br.lead_in)
     lines = [_through_junctions(b, br, junctions, junction_branch) for b in range(len(raw))]
     for b, r in enumerate(raw):  # again through the junction zones, the axes now joined there; the turns
@@ -566,6 +553,36 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     tree = replace(tree, checks=fit_checks(tree, pm, balls))  # every end reached, the wall covered (or raise)
     _log_branch_fits(tree, [p.rscale for p in problems], max_iter)
     return tree
+
+
+def _branch_fit(it, p):
+    """How a branch's fixed point ended (:attr:`VesselTree.branch_fit`)."""
+    return ("converged" if it.converged else "stopped" if it.step <= tol.TREE_UNSETTLED * p.rscale
+            else "centre line")
+
+
+def _raw_branch(b, idx, it, p, br, how):
+    """Branch ``b``'s first fit (its :class:`_RawBranch`) and the ends of its medial zones on its centre line,
+    (z, 2, 3) float64: its fixed point ``it`` with medial zones where it departs from the lumen, or, when it
+    did not settle (``how`` "centre line"), the lumen's centre line throughout."""
+    if how != "centre line":
+        nodes, zones = medial_zones(it.nodes, br.lines[b], br.line_radius[b], p.rscale)
+    else:  # a fixed point still wandering (a stub on its junction's flare), or one whose system is
+        # singular (a stub with too few vertices around some of its nodes), is no fit: the centre line
+        log.debug("tree branch %d: its fit %s; its axis is the lumen's centre line", b,
+                  "is singular (too few vertices around it)" if it.singular else
+                  f"still moves {it.step / p.rscale:.2g} radii per iteration")
+        nodes = resample_arclength(br.lines[b], len(it.nodes))
+        a = chord_length(br.lines[b])
+        zones = np.array([[0.0, a[-1]]])
+        # its radius is refitted about the centre line with outliers judged against the lumen's inscribed
+        # radius along it (as when singular from the first iteration), not against the radii where the
+        # wandering fit stopped: the wall of a vessel whose end was missed, which made the fit wander, is
+        # then an outlier, not a radius of 6.5 where the lumen's is 2 (a bulge, whose reach hid that vessel
+        # from the checks: issue #47)
+        it = replace(it, radii=np.interp(np.linspace(0.0, a[-1], len(it.nodes)), a, br.line_radius[b]))
+    medial = br.lines[b][np.searchsorted(chord_length(br.lines[b]), zones)]  # (z, 2, 3) ends
+    return _RawBranch(idx=idx, nodes=nodes, s=it.s, it=it, rscale=p.rscale), medial
 
 
 def _log_branch_fits(tree, rscales, max_iter):
