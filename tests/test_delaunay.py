@@ -82,3 +82,15 @@ def test_a_repeated_point_is_refused_not_renumbered():
     P = np.random.default_rng(1).random((50, 3))
     with pytest.raises(NotTubularError, match="51 vertices kept 50 of them"):
         _delaunay(np.vstack([P[:10], P[3:4], P[10:]]))
+
+
+def test_circumcentres_are_equidistant_from_the_corners_and_a_flat_tetrahedron_has_none():
+    from vesselgp.centerlines import _circumspheres
+
+    P = np.random.default_rng(7).random((200, 3)) * 10.0
+    tri = _delaunay(P)
+    c, R = _circumspheres(P, tri.simplices)
+    d = np.linalg.norm(P[tri.simplices] - c[:, None], axis=2)
+    np.testing.assert_allclose(d, R[:, None] * np.ones(4), rtol=1e-9)
+    flat = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
+    assert np.isinf(_circumspheres(flat, np.array([[0, 1, 2, 3]]))[1][0])
