@@ -613,6 +613,8 @@ MEDIAL_WINDING_ACCURACY = 1.5
 #: centred coordinates is below this times the largest (TetGen, whose own test is on its first tetrahedron,
 #: failed on such points at 1e-6 and tessellated them from 3e-6 up).
 MEDIAL_FLAT_POINTS = 1e-5
+#: Tetrahedra per chunk of the circumsphere computation (its temporaries stay in cache).
+MEDIAL_TET_CHUNK = 65536
 #: A tetrahedron is flat (no circumcentre) when 2 b.(c x d) is below this times its longest edge cubed.
 MEDIAL_FLAT_TET = 1e-12
 #: Least cost of a Voronoi edge (length over radius), so that co-spherical tetrahedra (one
