@@ -143,7 +143,7 @@ def tree_targets(rows):
             # stricter one against its centre lines alone
             out.append({"target": f"fit_vessel_tree / VMTK centre lines + branch split (qhull), {tag}",
                         "value": r["fit_vessel_tree_s"] / (r["vmtk_centerline_s"] + r["vmtk_branch_split_s"]),
-                        "limit": 0.1, "unit": "x", "vertices": r["vertices"]})
+                        "limit": 1 / 15, "unit": "x", "vertices": r["vertices"]})  # issue #47: 15x
             out.append({"target": f"fit_vessel_tree / VMTK centre lines alone (qhull), {tag}",
                         "value": r["fit_vessel_tree_s"] / r["vmtk_centerline_s"], "limit": 0.1, "unit": "x",
                         "vertices": r["vertices"]})
