@@ -140,3 +140,20 @@ def test_a_peak_is_a_bulge_only_where_the_wall_measures_it_all_round_at_the_edge
     assert abs(b.s_peak - 0.5) < 0.01 and abs(b.peak_radius - 1.6) < 0.01
     assert tree_bulges([_walled_path(1.0, 0.95 * m)]) == ()
     assert len(tree_bulges([_walled_path(1.0, 0.95 * m)], wall=False)) == 1
+
+
+def test_the_window_medians_are_numpys_nanmedian():
+    """Rows of 1-12 numbers with a third NaN (some rows all NaN): the same medians as np.nanmedian."""
+    import warnings
+
+    from vesselgp.bulges import _nan_medians
+
+    rng = np.random.default_rng(1)
+    for _ in range(100):
+        X = rng.standard_normal((rng.integers(1, 30), rng.integers(1, 13)))
+        X[rng.random(X.shape) < 0.35] = np.nan
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            want = np.nanmedian(X, axis=1)
+        np.testing.assert_array_equal(np.isnan(_nan_medians(X)), np.isnan(want))
+        np.testing.assert_allclose(_nan_medians(X)[~np.isnan(want)], want[~np.isnan(want)], rtol=0, atol=1e-15)
