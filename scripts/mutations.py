@@ -1600,6 +1600,30 @@ MUTATIONS = {
         "float(np.max(np.diff(t)))",
         ["tests/test_bulges.py"],
     ),
+    "per_vertex_rows_off_by_one": (
+        "vesselgp/_per_vertex.py",
+        "            whole[ids] = part\n",
+        "            whole[ids[::-1]] = part\n",
+        ["tests/test_per_vertex.py"],
+    ),
+    "per_vertex_rows_of_takes_every_row": (
+        "vesselgp/_per_vertex.py",
+        "        hit = ids[pos] == rows\n",
+        "        hit = np.ones(len(rows), bool)\n",
+        ["tests/test_per_vertex.py"],
+    ),
+    "per_vertex_stored_unsorted": (
+        "vesselgp/_per_vertex.py",
+        "    order = np.argsort(idx, kind=\"stable\")\n",
+        "    order = np.arange(len(idx))\n",
+        ["tests/test_per_vertex.py"],
+    ),
+    "wall_of_branches_reads_the_wrong_branch": (
+        "vesselgp/checks.py",
+        "        D[m] = np.linalg.norm(rows_of(g, \"vertex_local\", m), axis=1)\n",
+        "        D[m] = np.linalg.norm(rows_of(branches[b - 1], \"vertex_local\", m), axis=1)\n",
+        ["tests/test_checks.py", "tests/test_per_vertex.py"],
+    ),
 }
 
 

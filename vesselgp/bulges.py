@@ -30,6 +30,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from . import tolerances as tol
+from ._per_vertex import stored_rows
 from ._arrays import true_runs
 
 __all__ = ["Bulge", "bulges", "sac_wall", "tree_bulges"]
@@ -106,8 +107,9 @@ def wall_cover(gc, s, half):
     -------
     (q,) float64
     """
-    data = gc.vertex_weight > 0
-    vs, th = gc.vertex_s[data], gc.vertex_theta[data]
+    weight = stored_rows(gc, "vertex_weight")[1]  # the rows a tree's cylinder is stored on hold its data
+    data = weight > 0
+    vs, th = stored_rows(gc, "vertex_s")[1][data], stored_rows(gc, "vertex_theta")[1][data]
     order = np.argsort(vs)
     vs, th = vs[order], th[order]
     lo = np.searchsorted(vs, s - half / gc.length, side="left")

@@ -44,6 +44,7 @@ import numpy as np
 from scipy.sparse.csgraph import connected_components
 
 from . import tolerances as tol
+from ._per_vertex import rows_of
 from ._arrays import within_balls
 from .bulges import tree_bulges
 from .errors import NotTubularError
@@ -266,9 +267,9 @@ def _wall_of_branches(V, branches, vertex_branch):
     """Each vertex's distance to its branch's axis (to its end point beyond an end) and the radius at its foot."""
     D, R = np.full(len(V), np.nan), np.full(len(V), np.nan)
     for b, g in enumerate(branches):
-        m = vertex_branch == b
-        D[m] = np.linalg.norm(g.vertex_local[m], axis=1)
-        R[m] = g.radius_at(g.vertex_s[m])
+        m = np.flatnonzero(vertex_branch == b)
+        D[m] = np.linalg.norm(rows_of(g, "vertex_local", m), axis=1)
+        R[m] = g.radius_at(rows_of(g, "vertex_s", m))
     return D, R
 
 
@@ -280,17 +281,20 @@ def _zones(V, tree, D, R):
     for J, b in zip(tree.junctions, tree.junction_branch):
         exempt |= np.linalg.norm(V - J, axis=1) < tol.CHECK_JUNCTION_RADII * tree.branches[b].radii[-1]
     for b, g in enumerate(tree.branches):
-        m = tree.vertex_branch == b
+        m = np.flatnonzero(tree.vertex_branch == b)
+        if tree.parent[b] < 0 and not len(tree.medial_zones[b]):
+            continue
+        gs = rows_of(g, "vertex_s", m)
         if tree.parent[b] >= 0:  # the mouth, in the child's radius, at most its parent's there (a branch whose
             # wall has a vessel with no axis in it has that vessel's wall in its mean radius: issue #44), and
             # no farther from the child's axis than the zones reach in the parent's radius (the mouth's flare
             # is the parent's wall; a sac beside it, whose wall has its foot there, is not: issue #44)
             rp = float(tree.branches[tree.parent[b]].radii[-1])
             r = min(float(np.median(g.radii)), rp)
-            exempt |= m & (g.vertex_s * g.length <= tree.junction_zone[b] + tol.CHECK_MOUTH_RADII * r) & (
-                D <= tol.CHECK_ZONE_REACH * np.maximum(R, rp))
+            exempt[m] |= (gs * g.length <= tree.junction_zone[b] + tol.CHECK_MOUTH_RADII * r) & (
+                D[m] <= tol.CHECK_ZONE_REACH * np.maximum(R[m], rp))
         for z0, z1 in tree.medial_zones[b]:
-            zone |= m & (g.vertex_s >= z0) & (g.vertex_s <= z1)
+            zone[m] |= (gs >= z0) & (gs <= z1)
     for bl in tree.bulges:
         s = tree.paths[bl.paths[0]].vertex_s
         m = (s >= bl.s_range[0]) & (s <= bl.s_range[1])  # NaN off the path: False

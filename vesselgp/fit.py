@@ -48,6 +48,7 @@ import scipy.sparse.linalg as spla
 from . import tolerances as tol
 from ._arrays import thinned
 from ._interop import polylines_to_pyvista
+from ._per_vertex import VERTEX_FILLS, PerVertex
 from ._validate import as_vector
 from .checks import cylinder_checks
 from .axis import (Axis, AxisStack, circle_fit_solve, circle_fit_sums, hat, interp_frames,
@@ -120,6 +121,13 @@ class GeneralizedCylinder:
     checks : FitChecks or None
         The fit checked against its mesh (:func:`vesselgp.checks.cylinder_checks`: its gaps to its
         ends, the wall it covers); None for a tree's branches and paths (the tree has them).
+
+    Notes
+    -----
+    A tree's branches and paths (:func:`vesselgp.fit_vessel_tree`) are fitted on part of the mesh. They
+    keep their five ``vertex_*`` arrays on those vertices only and give the arrays over the whole mesh
+    (NaN or 0 elsewhere, as documented above) when one is first read, once per array. Kept whole, the
+    191 cylinders of a 64-tip tree of 260k vertices held 2.8 GB and took 5 s of its fit to write.
     """
 
     s: np.ndarray
@@ -193,6 +201,10 @@ class GeneralizedCylinder:
 
 
 # ----------------------------------------------------------------------------- radius and weights
+
+
+for _name, _fill in VERTEX_FILLS.items():
+    setattr(GeneralizedCylinder, _name, PerVertex(_name, _fill))
 
 
 def _radius_fit(s, rho, w, K, mu):

@@ -54,6 +54,7 @@ from .errors import EndsError, NotTubularError
 from .fit import (check_cylinder_bend, cylinder_from_axis, cylinder_sharp_bends,
                   FitProblem, fit_generalized_cylinder, fixed_points)
 from .inside import check_axis_inside
+from ._per_vertex import on_rows, rows_of
 from .medial_zones import medial_zones
 from .prepared import prepared_mesh
 from .rotations import minimal_rotation
@@ -82,7 +83,8 @@ class VesselTree:
         trunk. Each is fitted on its own vertices: its per-vertex arrays have
         one row per mesh vertex, NaN (``vertex_s``, ``vertex_theta``,
         ``vertex_local``) and 0 (``vertex_weight``, ``vertex_area``) for
-        vertices of other branches. ``ends`` holds the end index at a terminal
+        vertices of other branches (made whole on first read: see
+        :class:`vesselgp.GeneralizedCylinder`'s notes). ``ends`` holds the end index at a terminal
         side and -1 at a junction side (the trunk ``(root, -1)``, a leaf
         ``(-1, tip)``).
     parent : (b,) int64
@@ -389,17 +391,6 @@ def _junctions(raw, parent, junctions, junction_radius, lead_in):
 # ----------------------------------------------------------------------------- cylinders
 
 
-def _scattered(gc, idx, n):
-    """``gc`` fitted on vertices ``idx``, with per-vertex arrays over all ``n`` (NaN / 0 elsewhere)."""
-    def full(a, fill):
-        out = np.full((n,) + a.shape[1:], fill, dtype=a.dtype)
-        out[idx] = a
-        return out
-    return replace(gc, vertex_s=full(gc.vertex_s, np.nan), vertex_theta=full(gc.vertex_theta, np.nan),
-                   vertex_local=full(gc.vertex_local, np.nan), vertex_weight=full(gc.vertex_weight, 0.0),
-                   vertex_area=full(gc.vertex_area, 0.0))
-
-
 def _cylinder(V, area, caps_all, idx, nodes, s_prev, it, normal, ends, lam, mu, rscale, spn=None):
     """The generalized cylinder of one branch (or path) through ``nodes``, on vertices ``idx``.
 
@@ -421,7 +412,7 @@ def _cylinder(V, area, caps_all, idx, nodes, s_prev, it, normal, ends, lam, mu, 
         s_prev = axis.s[cKDTree(axis.points).query(points)[1]][row]
     s_raw = _refooted(axis, V[idx], s_prev, axis.project(V[idx], s_prev), rscale)
     gc = cylinder_from_axis(axis, V[idx], s_raw, caps_all[idx], area[idx], it, mu, lam, ends)
-    return _scattered(gc, idx, len(V)), axis
+    return on_rows(gc, idx, len(V)), axis
 
 
 def _refooted(axis, P, s_start, s, rscale):
@@ -768,7 +759,7 @@ def _paths(V, area, caps, branches, axes, raw, br, root, lam, mu):
         offset = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
         total = float(lengths.sum())
         idx = np.concatenate([raw[b].idx for b in chain])
-        s_prev = np.concatenate([(offset[k] + branches[b].vertex_s[raw[b].idx] * lengths[k]) / total
+        s_prev = np.concatenate([(offset[k] + rows_of(branches[b], "vertex_s", raw[b].idx) * lengths[k]) / total
                                  for k, b in enumerate(chain)])
         K = int(sum(len(raw[b].nodes) for b in chain))
         # the axis through the branches' dense samples, not through K nodes: a spline through the
