@@ -1624,6 +1624,24 @@ MUTATIONS = {
         "        D[m] = np.linalg.norm(rows_of(branches[b - 1], \"vertex_local\", m), axis=1)\n",
         ["tests/test_checks.py", "tests/test_per_vertex.py"],
     ),
+    "agglomerate_forgets_the_cluster_sizes": (
+        "vesselgp/branches.py",
+        "        size[c] = size[a] + size[b]\n",
+        "        size[c] = 1.0\n",
+        ["tests/test_branches.py"],
+    ),
+    "vertex_branch_box_slice_on_the_wrong_side": (
+        "vesselgp/branches.py",
+        "np.searchsorted(xs, hi[0], \"right\")]",
+        "np.searchsorted(xs, hi[0] - m, \"right\")]",
+        ["tests/test_branches.py"],
+    ),
+    "junction_balls_in_the_wrong_order": (
+        "vesselgp/checks.py",
+        "        reach = np.array([float(tree.branches[b].radii[-1]) for b in tree.junction_branch])\n",
+        "        reach = np.array([float(tree.branches[b].radii[-1]) for b in tree.junction_branch][::-1])\n",
+        ["tests/test_checks.py"],
+    ),
 }
 
 

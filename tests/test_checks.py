@@ -235,3 +235,23 @@ def test_the_mouth_reaches_no_farther_than_the_zones_at_its_edge(reach, exempt, 
     R = np.full(3, child_radius)
     ex, zone, _ = _zones(V, tree, D, R)
     assert ex.tolist() == [exempt, False, True] and not zone.any()
+
+
+@pytest.mark.parametrize("at, exempt", [(0.99, True), (1.01, False)])
+def test_the_wall_near_each_junction_is_exempt_within_its_own_radii(at, exempt):
+    """Issue #47 (the junctions' balls found in one pass): a vertex at 0.99 / 1.01 times CHECK_JUNCTION_RADII times
+    the radius at the end of the junction's branch, from either of two junctions whose branches end at radii 2 and
+    0.5, is exempt / not (the other junction is far); a vertex far from both is not."""
+    from vesselgp.checks import _zones
+
+    radii = (2.0, 0.5)
+    J = np.array([[0.0, 0, 0], [100.0, 0, 0]])
+    d = at * tol.CHECK_JUNCTION_RADII * np.array(radii)
+    u = np.array([0.6, 0.0, 0.8])
+    V = np.vstack([J[0] + d[0] * u, J[1] - d[1] * u, [50.0, 50, 50]])
+    branches = [NS(radii=np.full(5, r)) for r in radii]
+    tree = NS(junctions=list(J), junction_branch=[0, 1], branches=branches, parent=[-1, -1],
+              vertex_branch=np.zeros(3, np.int64), junction_zone=[0.0, 0.0], medial_zones=[np.zeros((0, 2))] * 2,
+              bulges=(), paths=())
+    ex, zone, _ = _zones(V, tree, np.zeros(3), np.ones(3))
+    assert ex.tolist() == [exempt, exempt, False] and not zone.any()

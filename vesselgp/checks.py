@@ -278,8 +278,10 @@ def _zones(V, tree, D, R):
     (medial zones, bulges) of a fitted tree (:class:`vesselgp.VesselTree`); ``D``: each vertex's distance to
     its branch's axis, ``R``: the fitted radius at its foot."""
     exempt, zone, zone_radius = np.zeros(len(V), bool), np.zeros(len(V), bool), R.copy()
-    for J, b in zip(tree.junctions, tree.junction_branch):
-        exempt |= np.linalg.norm(V - J, axis=1) < tol.CHECK_JUNCTION_RADII * tree.branches[b].radii[-1]
+    if len(tree.junctions):  # near any junction (one pass, not one sweep of the mesh per junction: issue #47)
+        reach = np.array([float(tree.branches[b].radii[-1]) for b in tree.junction_branch])
+        exempt |= within_balls(V, np.asarray(tree.junctions, np.float64).reshape(-1, 3),
+                               tol.CHECK_JUNCTION_RADII * reach)
     for b, g in enumerate(tree.branches):
         m = np.flatnonzero(tree.vertex_branch == b)
         if tree.parent[b] < 0 and not len(tree.medial_zones[b]):
