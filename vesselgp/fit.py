@@ -200,11 +200,12 @@ class GeneralizedCylinder:
             what="GeneralizedCylinder.to_pyvista()")
 
 
-# ----------------------------------------------------------------------------- radius and weights
-
-
+# the five per-vertex fields read through PerVertex: whole arrays, or a tree cylinder's rows made whole on read
 for _name, _fill in VERTEX_FILLS.items():
     setattr(GeneralizedCylinder, _name, PerVertex(_name, _fill))
+
+
+# ----------------------------------------------------------------------------- radius and weights
 
 
 def _radius_fit(s, rho, w, K, mu):
