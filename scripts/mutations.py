@@ -1642,6 +1642,30 @@ MUTATIONS = {
         "        reach = np.array([float(tree.branches[b].radii[-1]) for b in tree.junction_branch][::-1])\n",
         ["tests/test_checks.py"],
     ),
+    "refinement_gate_inverted": (
+        "vesselgp/fit.py",
+        "it.lam > tol.GC_REFINE_LAMBDA * lam:",
+        "it.lam <= tol.GC_REFINE_LAMBDA * lam:",
+        ["tests/test_refined.py"],
+    ),
+    "refinement_keeps_its_closer_nodes": (
+        "vesselgp/fit.py",
+        "    return replace(fine, nodes=resample_arclength(fine.nodes, K), count=it.count + fine.count)\n",
+        "    return replace(fine, count=it.count + fine.count)\n",
+        ["tests/test_output_fields.py"],
+    ),
+    "refinement_gives_up_a_step_late": (
+        "vesselgp/fit.py",
+        "(growing is not None and grew[b] >= growing)",
+        "(growing is not None and grew[b] > growing)",
+        ["tests/test_refined.py"],
+    ),
+    "refinement_on_the_same_nodes": (
+        "vesselgp/fit.py",
+        "    K2 = int(round((K - 1) / tol.GC_REFINE_SPACING)) + 1\n",
+        "    K2 = K\n",
+        ["tests/test_real_shapes.py", "tests/test_refined.py"],
+    ),
 }
 
 
