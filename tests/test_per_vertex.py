@@ -35,6 +35,8 @@ def test_tree_cylinders_are_stored_on_their_own_rows_and_give_each_vertex_back(t
     V, t = tree
     n = len(V)
     cylinders = list(t.branches) + list(t.paths)
+    repr(t)  # printing the tree makes no array whole
+    assert not any(k.startswith("_whole_") for g in cylinders for k in g.__dict__)
     stored = [len(stored_rows(g, "vertex_s")[0]) for g in cylinders]
     # stored compactly: the branches partition the vertices, a path holds its branches' rows
     assert sum(stored[:len(t.branches)]) <= n

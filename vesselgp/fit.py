@@ -135,11 +135,11 @@ class GeneralizedCylinder:
     centers: np.ndarray
     radii: np.ndarray
     frames: np.ndarray
-    vertex_s: np.ndarray
-    vertex_theta: np.ndarray
-    vertex_local: np.ndarray
-    vertex_weight: np.ndarray
-    vertex_area: np.ndarray
+    vertex_s: np.ndarray = field(repr=False)  # not in the repr: a tree's cylinder would make them whole
+    vertex_theta: np.ndarray = field(repr=False)
+    vertex_local: np.ndarray = field(repr=False)
+    vertex_weight: np.ndarray = field(repr=False)
+    vertex_area: np.ndarray = field(repr=False)
     ends: tuple
     dense_s: np.ndarray = field(repr=False)
     dense_points: np.ndarray = field(repr=False)
