@@ -1642,6 +1642,18 @@ MUTATIONS = {
         "        reach = np.array([float(tree.branches[b].radii[-1]) for b in tree.junction_branch][::-1])\n",
         ["tests/test_checks.py"],
     ),
+    "rows_by_branch_shifted": (
+        "vesselgp/checks.py",
+        "np.cumsum(np.bincount(vertex_branch, minlength=n_branches))[:-1])",
+        "np.cumsum(np.bincount(vertex_branch, minlength=n_branches))[:-1] + 1)",
+        ["tests/test_checks.py", "tests/test_per_vertex.py"],
+    ),
+    "bulge_zone_from_the_wrong_rows": (
+        "vesselgp/checks.py",
+        "        m = rows[(s >= bl.s_range[0]) & (s <= bl.s_range[1])]\n",
+        "        m = np.flatnonzero((s >= bl.s_range[0]) & (s <= bl.s_range[1]))\n",
+        ["tests/test_checks.py", "tests/test_real_trees.py"],
+    ),
     "refinement_gate_inverted": (
         "vesselgp/fit.py",
         "it.lam > tol.GC_REFINE_LAMBDA * lam:",

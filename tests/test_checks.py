@@ -255,3 +255,24 @@ def test_the_wall_near_each_junction_is_exempt_within_its_own_radii(at, exempt):
               bulges=(), paths=())
     ex, zone, _ = _zones(V, tree, np.zeros(3), np.ones(3))
     assert ex.tolist() == [exempt, exempt, False] and not zone.any()
+
+
+def test_a_bulge_zone_is_the_path_vertices_whose_foot_lies_in_its_range():
+    """A bulge's zone is the vertices of its path whose foot on the path's axis lies within its s range, with
+    its peak radius: on a path stored on rows 40.. of the mesh (a tree's path keeps its arrays on its own
+    rows), against the path's parameters read over the whole mesh."""
+    from vesselgp._per_vertex import on_rows
+    from vesselgp.checks import _zones
+
+    t = synthetic_tree(levels=0, voxel=0.6)
+    gc = vesselgp.fit_generalized_cylinder(t.V, t.F)
+    n = len(gc.vertex_s) + 40
+    path = on_rows(gc, np.arange(40, n), n)
+    bulge = NS(paths=(0,), s_range=(0.3, 0.5), peak_radius=9.0, wall=np.zeros(0, np.int64))
+    tree = NS(junctions=[], junction_branch=[], branches=[], parent=[], vertex_branch=np.zeros(n, np.int64),
+              junction_zone=[], medial_zones=[], bulges=(bulge,), paths=(path,))
+    ex, zone, zone_radius = _zones(np.zeros((n, 3)), tree, np.zeros(n), np.ones(n))
+    s = path.vertex_s  # over the whole mesh, NaN on rows 0-39
+    want = (s >= 0.3) & (s <= 0.5)
+    assert want.sum() > 100 and np.array_equal(zone, want) and not ex.any()
+    assert np.all(zone_radius[want] == 9.0) and np.all(zone_radius[~want] == 1.0)

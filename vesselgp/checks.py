@@ -44,7 +44,7 @@ import numpy as np
 from scipy.sparse.csgraph import connected_components
 
 from . import tolerances as tol
-from ._per_vertex import rows_of
+from ._per_vertex import rows_of, stored_rows
 from ._arrays import within_balls
 from .bulges import tree_bulges
 from .errors import NotTubularError
@@ -263,11 +263,16 @@ def check_coverage(uncovered, scale):
         "or a cap that is not listed, cut the vessel open there")
 
 
+def _rows_by_branch(vertex_branch, n_branches):
+    """Each branch's vertex rows, increasing, from one sort (not one sweep of the mesh per branch: issue #47)."""
+    order = np.argsort(vertex_branch, kind="stable")
+    return np.split(order, np.cumsum(np.bincount(vertex_branch, minlength=n_branches))[:-1])
+
+
 def _wall_of_branches(V, branches, vertex_branch):
     """Each vertex's distance to its branch's axis (to its end point beyond an end) and the radius at its foot."""
     D, R = np.full(len(V), np.nan), np.full(len(V), np.nan)
-    for b, g in enumerate(branches):
-        m = np.flatnonzero(vertex_branch == b)
+    for g, m in zip(branches, _rows_by_branch(vertex_branch, len(branches))):
         D[m] = np.linalg.norm(rows_of(g, "vertex_local", m), axis=1)
         R[m] = g.radius_at(rows_of(g, "vertex_s", m))
     return D, R
@@ -282,8 +287,7 @@ def _zones(V, tree, D, R):
         reach = np.array([float(tree.branches[b].radii[-1]) for b in tree.junction_branch])
         exempt |= within_balls(V, np.asarray(tree.junctions, np.float64).reshape(-1, 3),
                                tol.CHECK_JUNCTION_RADII * reach)
-    for b, g in enumerate(tree.branches):
-        m = np.flatnonzero(tree.vertex_branch == b)
+    for b, (g, m) in enumerate(zip(tree.branches, _rows_by_branch(tree.vertex_branch, len(tree.branches)))):
         if tree.parent[b] < 0 and not len(tree.medial_zones[b]):
             continue
         gs = rows_of(g, "vertex_s", m)
@@ -298,9 +302,9 @@ def _zones(V, tree, D, R):
         for z0, z1 in tree.medial_zones[b]:
             zone[m] |= (gs >= z0) & (gs <= z1)
     for bl in tree.bulges:
-        s = tree.paths[bl.paths[0]].vertex_s
-        m = (s >= bl.s_range[0]) & (s <= bl.s_range[1])  # NaN off the path: False
-        zone |= m
+        rows, s = stored_rows(tree.paths[bl.paths[0]], "vertex_s")  # the path's own vertices
+        m = rows[(s >= bl.s_range[0]) & (s <= bl.s_range[1])]
+        zone[m] = True
         zone_radius[m] = np.maximum(zone_radius[m], bl.peak_radius)
         exempt[bl.wall] = True  # a sac's wall beyond the tubes: described by the sac
     return exempt, zone, zone_radius
