@@ -1656,15 +1656,15 @@ MUTATIONS = {
     ),
     "refinement_gate_inverted": (
         "vesselgp/fit.py",
-        "it.lam > tol.GC_REFINE_LAMBDA * lam:",
-        "it.lam <= tol.GC_REFINE_LAMBDA * lam:",
+        "it.lam <= tol.GC_REFINE_LAMBDA * lam\n",
+        "it.lam > tol.GC_REFINE_LAMBDA * lam\n",
         ["tests/test_refined.py"],
     ),
     "refinement_keeps_its_closer_nodes": (
         "vesselgp/fit.py",
-        "    return replace(fine, nodes=resample_arclength(fine.nodes, K), count=it.count + fine.count)\n",
-        "    return replace(fine, count=it.count + fine.count)\n",
-        ["tests/test_output_fields.py"],
+        "nodes=resample_arclength(fine.nodes, K) if resample else fine.nodes,",
+        "nodes=fine.nodes,",
+        ["tests/test_output_fields.py", "tests/test_refined.py"],
     ),
     "refinement_gives_up_a_step_late": (
         "vesselgp/fit.py",
@@ -1674,9 +1674,57 @@ MUTATIONS = {
     ),
     "refinement_on_the_same_nodes": (
         "vesselgp/fit.py",
-        "    K2 = int(round((K - 1) / tol.GC_REFINE_SPACING)) + 1\n",
-        "    K2 = K\n",
+        "        K2 = int(round((len(states[b].nodes) - 1) / tol.GC_REFINE_SPACING)) + 1\n",
+        "        K2 = len(states[b].nodes)\n",
         ["tests/test_real_shapes.py", "tests/test_refined.py"],
+    ),
+    "refinement_pull_gate_ignored": (
+        "vesselgp/fit.py",
+        "problems[b].rscale) > tol.GC_REFINE_MIN_MOVE]",
+        "problems[b].rscale) > -1.0]",
+        ["tests/test_refined.py"],
+    ),
+    "refinement_move_gate_ignored": (
+        "vesselgp/fit.py",
+        "        if moved <= tol.GC_REFINE_MIN_MOVE:",
+        "        if moved < 0.0:",
+        ["tests/test_refined.py"],
+    ),
+    "refinement_kept_where_its_nodes_see_too_few_vertices": (
+        "vesselgp/fit.py",
+        "        if fine.lam is None or fine.lam > tol.GC_REFINE_LAMBDA * lam:",
+        "        if fine.lam is None:",
+        ["tests/test_refined.py", "tests/test_real_shapes.py"],
+    ),
+    "refinement_free_end_margin_ignored": (
+        "vesselgp/fit.py",
+        "    if not pin[0]:\n        keep &= arc - arc[0] >= margin\n",
+        "",
+        ["tests/test_refined.py"],
+    ),
+    "pull_is_a_second_difference": (
+        "vesselgp/fit.py",
+        "d4 = np.linalg.norm(C[:-4] - 4.0 * C[1:-3] + 6.0 * C[2:-2] - 4.0 * C[3:-1] + C[4:], axis=1)",
+        "d4 = np.linalg.norm(C[1:-3] - 2.0 * C[2:-2] + C[3:-1], axis=1)",
+        ["tests/test_refined.py"],
+    ),
+    "refinement_move_counts_overshoot": (
+        "vesselgp/fit.py",
+        "    counted &= ~(np.all(foot == L[0], axis=1) | np.all(foot == L[-1], axis=1))\n",
+        "",
+        ["tests/test_refined.py"],
+    ),
+    "tree_branches_not_refined": (
+        "vesselgp/tree.py",
+        "    fits = refined(problems, fits, lam=lam, mu=mu, max_iter=max_iter, singular=\"stop\", resample=False)",
+        "    pass",
+        ["tests/test_real_shapes.py"],
+    ),
+    "tree_branches_refined_and_resampled_back": (
+        "vesselgp/tree.py",
+        "singular=\"stop\", resample=False)",
+        "singular=\"stop\", resample=True)",
+        ["tests/test_real_shapes.py"],
     ),
 }
 

@@ -61,18 +61,15 @@ def test_a_refinement_that_does_not_converge_leaves_the_first_fit(caplog, monkey
     monkeypatch.setattr(tol, "GC_REFINE_LAMBDA", -1.0)  # no refinement: the first fit alone
     first = vesselgp.fit_generalized_cylinder(V, F)
     monkeypatch.setattr(tol, "GC_REFINE_LAMBDA", 0.5)
-    real = fit.fixed_point
-
-    def stalls(*args, **kw):
-        return fit.replace(real(*args, **kw), converged=False)
-
+    real = fit.fixed_points
     calls = []
 
-    def counted(*args, **kw):
-        calls.append(len(args[0]))
-        return real(*args, **kw) if len(calls) == 1 else stalls(*args, **kw)
+    def counted(problems, **kw):  # the first fit, then the refinement, which stalls
+        calls.append(len(problems[0].nodes))
+        states = real(problems, **kw)
+        return states if len(calls) == 1 else [fit.replace(st, converged=False) for st in states]
 
-    monkeypatch.setattr(fit, "fixed_point", counted)
+    monkeypatch.setattr(fit, "fixed_points", counted)
     with caplog.at_level(logging.INFO, logger="vesselgp.fit"):
         gc = vesselgp.fit_generalized_cylinder(V, F)
     assert len(calls) == 2 and calls[1] > calls[0]  # the refinement ran, on more nodes
@@ -113,3 +110,135 @@ def test_a_refinement_whose_steps_grow_is_given_up_at_the_third_growing_step(cap
     n = tol.GC_REFINE_GROWING
     assert runs[-1] == n and max(runs[:-1]) < n
     assert len(fine) < tol.GC_MAX_ITER  # given up before the cap
+
+
+# ----------------------------------------------------------------------------- the refinement's gates
+
+
+def test_second_difference_pull_is_the_fourth_difference_of_the_nodes():
+    """On nodes C_k = (k, c k^4, 0) the fourth difference is 24 c at every node; the pull is that in radii."""
+    k = np.arange(30.0)
+    C = np.c_[k, 1e-5 * k**4, 0 * k]
+    assert np.isclose(fit._second_difference_pull(C, (True, True), 2.0), 24e-5 / 2.0, rtol=1e-6)
+
+
+@pytest.mark.parametrize("at, counted", [(0.99, False), (1.01, True)])
+def test_second_difference_pull_leaves_out_a_free_ends_margin(at, counted):
+    """A bump of delta at node 10 of a straight line (unit spacing) gives fourth differences 6 delta there and
+    4 delta at its neighbours. With a free first end and node 10 at 0.99 / 1.01 of GC_REFINE_FREE_END radii
+    from it, the pull is 4 delta (the row at node 10 left out) / 6 delta."""
+    r = 10.0 / (at * tol.GC_REFINE_FREE_END)
+    k = np.arange(30.0)
+    C = np.c_[k, 0 * k, 0 * k]
+    C[10, 1] = 1e-3
+    got = fit._second_difference_pull(C, (False, True), r)
+    assert np.isclose(got, (6e-3 if counted else 4e-3) / r, rtol=1e-9)
+    assert np.isclose(fit._second_difference_pull(C, (True, True), r), 6e-3 / r, rtol=1e-9)  # pinned: counted
+
+
+@pytest.mark.parametrize("at, counted", [(0.99, False), (1.01, True)])
+def test_refinement_move_is_the_farthest_node_off_the_first_axis(at, counted):
+    """First axis: a straight line of 21 nodes, x = 0..20. Refined nodes on it, one moved delta sideways at x =
+    ``at`` x GC_REFINE_FREE_END radii from a free first end: its move counts at 1.01, not at 0.99. A node past
+    the first axis's end (its foot is the end) never counts."""
+    r = 2.0
+    first = np.c_[np.arange(21.0), np.zeros(21), np.zeros(21)]
+    x = np.linspace(0.0, 20.0, 26)
+    j = 5
+    x[j] = at * tol.GC_REFINE_FREE_END * r
+    fine = np.c_[x, np.zeros(26), np.zeros(26)]
+    fine[j, 1] = 1e-3
+    got = fit._refinement_move(first, fine, (False, True), r)
+    assert np.isclose(got, 1e-3 / r if counted else 0.0, rtol=1e-6, atol=1e-12)
+    over = np.r_[fine, [[21.0, 0.5, 0.0]]]  # 0.5 sideways, past the end: its foot is the end
+    assert np.isclose(fit._refinement_move(first, over, (True, True), r), 1e-3 / r, rtol=1e-6)
+
+
+def _arch():
+    from vesselgp.synthetic import synthetic_vessel
+
+    v = synthetic_vessel("aortic_arch", radius=12.0, n_around=24, remesh=False)
+    return v.V, v.F
+
+
+def _recorded(monkeypatch, name):
+    """Wrap fit.<name> to record what it returns."""
+    got, real = [], getattr(fit, name)
+
+    def rec(*args, **kw):
+        out = real(*args, **kw)
+        got.append(out)
+        return out
+
+    monkeypatch.setattr(fit, name, rec)
+    return got
+
+
+@pytest.fixture(scope="module")
+def arch_first_and_refined():
+    V, F = _arch()
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(tol, "GC_REFINE_LAMBDA", -1.0)
+        first = vesselgp.fit_generalized_cylinder(V, F)
+    return V, F, first, vesselgp.fit_generalized_cylinder(V, F)
+
+
+def test_the_arch_is_refined_by_default(arch_first_and_refined):
+    """The synthetic aortic arch (curvature varying from the ascending aorta into the arch) is refined: its axis
+    moved, its node count kept (a single vessel's refinement is resampled back)."""
+    _, _, first, gc = arch_first_and_refined
+    assert len(gc.s) == len(first.s) and gc.iterations > first.iterations
+    assert np.abs(gc.centers - first.centers).max() > tol.GC_REFINE_MIN_MOVE * float(np.median(first.radii))
+
+
+@pytest.mark.parametrize("k, runs", [(0.99, True), (1.01, False)])
+def test_the_refinement_is_not_tried_where_eq2_pulls_less_than_its_threshold(k, runs, monkeypatch,
+                                                                              arch_first_and_refined):
+    """GC_REFINE_MIN_MOVE at 0.99 / 1.01 of lam times the converged arch's pull (its nodes' largest fourth
+    difference, tested above): the refinement runs (a second fixed point) / is not tried."""
+    V, F, first, _ = arch_first_and_refined
+    pulls = _recorded(monkeypatch, "_second_difference_pull")
+    vesselgp.fit_generalized_cylinder(V, F)
+    edge = first.lam * pulls[0]
+    assert edge > tol.GC_REFINE_MIN_MOVE  # the default tries it
+    monkeypatch.setattr(tol, "GC_REFINE_MIN_MOVE", k * edge)
+    calls = _recorded(monkeypatch, "fixed_points")
+    vesselgp.fit_generalized_cylinder(V, F)
+    assert len(calls) == (2 if runs else 1)
+
+
+@pytest.mark.parametrize("k, kept", [(0.99, True), (1.01, False)])
+def test_a_refinement_that_moves_the_axis_less_than_its_threshold_is_dropped(k, kept, monkeypatch,
+                                                                            arch_first_and_refined):
+    """GC_REFINE_MIN_MOVE at 0.99 / 1.01 of the refinement's move on the arch (tested above; below Eq. 2's pull,
+    so the refinement runs either way): the refined axis is kept / the first fit is returned, bit for bit."""
+    V, F, first, refined = arch_first_and_refined
+    moves = _recorded(monkeypatch, "_refinement_move")
+    vesselgp.fit_generalized_cylinder(V, F)
+    monkeypatch.setattr(tol, "GC_REFINE_MIN_MOVE", k * moves[0])
+    gc = vesselgp.fit_generalized_cylinder(V, F)
+    assert np.array_equal(gc.centers, (refined if kept else first).centers)
+    assert gc.iterations == (refined if kept else first).iterations
+
+
+@pytest.mark.parametrize("k, kept", [(0.99, True), (1.01, False)])
+def test_a_refinement_whose_nodes_see_too_few_vertices_is_dropped(k, kept, monkeypatch, arch_first_and_refined):
+    """GC_LAMBDA_VERTICES at 0.99 / 1.01 of the refined fit's data vertices per node (counted by data_lambda on
+    its final circle fit; the first fit has 1.25 times as many per node and keeps its lowered weight): the
+    refined fit's own weight is lowered and it is kept / it keeps lam and the first fit is returned."""
+    V, F, first, refined = arch_first_and_refined
+    seen, real = [], fit.data_lambda
+
+    def counted(lam, rel, K):
+        seen.append((len(rel) / (K - 1), K))
+        return real(lam, rel, K)
+
+    monkeypatch.setattr(fit, "data_lambda", counted)
+    vesselgp.fit_generalized_cylinder(V, F)
+    per_first = [p for p, K in seen if K == len(first.s)][-1]
+    per_fine = [p for p, K in seen if K > len(first.s)][-1]
+    assert per_first > 1.2 * per_fine
+    monkeypatch.setattr(tol, "GC_LAMBDA_VERTICES", k * per_fine)
+    gc = vesselgp.fit_generalized_cylinder(V, F)
+    assert gc.final_lam <= tol.GC_REFINE_LAMBDA * gc.lam  # the first fit's weight is lowered either way
+    assert np.array_equal(gc.centers, (refined if kept else first).centers)

@@ -74,6 +74,15 @@ GC_REFINE_SPACING = 0.8
 #: ... and is given up (the first fit kept) when its step grows this many iterations in a row once its outlier
 #: set is fixed (a fixed point that settles contracts; on the swept real lines a step grew at most once in a row).
 GC_REFINE_GROWING = 3
+#: ... and kept only where it moved the axis by more than this many radii (its nodes farthest from the first
+#: axis): on the synthetic trees' straight branches it moved 1e-4 radii and only the node count changed.
+GC_REFINE_MIN_MOVE = 3e-4
+#: The first axis is sampled this many times per node spacing to measure that move (a chord's sagitta there is
+#: under 1e-5 radii in a bend of curvature x radius 0.7).
+GC_REFINE_MOVE_SAMPLES = 64
+#: ... not counting the nodes within this many radii of a free end (a tree branch's junction side: the junction
+#: redraws it; on the synthetic trees the refinement moved it by up to 0.03 radii there, and 1e-4 elsewhere).
+GC_REFINE_FREE_END = 3.0
 #: Robust reweighting: a vertex whose distance to the axis departs from the
 #: local radius by more than this many robust standard deviations gets weight 0
 #: (side branches, cap remnants).

@@ -52,7 +52,7 @@ from .checks import FitChecks, fit_checks
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
 from .fit import (check_cylinder_bend, cylinder_from_axis, cylinder_sharp_bends,
-                  FitProblem, fit_generalized_cylinder, fixed_points)
+                  FitProblem, fit_generalized_cylinder, fixed_points, refined)
 from .inside import check_axis_inside
 from ._per_vertex import on_rows, rows_of
 from .medial_zones import medial_zones
@@ -511,6 +511,8 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     # the branches' fixed points in lock step (one vectorised pass per iteration over all of them)
     fits = fixed_points(problems, lam=lam, mu=mu, max_iter=max_iter, what="vessel-tree branch fit",
                         singular="stop", unsettled=(tol.TREE_UNSETTLED, tol.TREE_UNSETTLED_ITERATIONS))
+    # a clean branch's fixed point again on closer nodes, which it keeps (issue #48; vesselgp.fit.refined)
+    fits = refined(problems, fits, lam=lam, mu=mu, max_iter=max_iter, singular="stop", resample=False)
     how = [_branch_fit(it, p) for it, p in zip(fits, problems)]
     firsts = [_raw_branch(b, idx, it, p, br, h) for b, (idx, it, p, h) in enumerate(zip(ids, fits, problems, how))]
     raw, medial = [r for r, _ in firsts], [m for _, m in firsts]
