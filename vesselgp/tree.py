@@ -10,8 +10,10 @@ generalized cylinders (paper Section 2.1-2.2, applied branch by branch):
    topology, the junction zones, each branch's first axis and each vertex's branch).
 2. **One fit per branch, on its own vertices.** The fixed point of Eq. 3 and Eq. 5
    starts from the branch's centre line and is iterated exactly as for a single
-   vessel (circle-fit centres, robust reweighting that drops the junction bulges).
-   The shared trunk is fitted once, not once per path.
+   vessel (circle-fit centres, robust reweighting that drops the junction bulges),
+   and a clean, densely meshed branch is iterated again on closer nodes, which it
+   keeps (:func:`vesselgp.fit.refined`, issue #48). The shared trunk is fitted
+   once, not once per path.
 3. **Junctions.** A junction is the point closest, in least squares, to the
    lines continuing the parent's distal end and the children's proximal ends
    (centre lines of a bifurcation meet at a corner), held within half the
