@@ -1720,6 +1720,36 @@ MUTATIONS = {
         "    pass",
         ["tests/test_real_shapes.py"],
     ),
+    "coarsening_without_its_spacing_limit": (
+        "vesselgp/fit.py",
+        "return K2 if K2 < K and (K - 1) <= tol.GC_COARSEN_SPACING * (K2 - 1) else None",
+        "return K2 if K2 < K else None",
+        ["tests/test_refined.py"],
+    ),
+    "sparse_wall_gate_off_by_one": (
+        "vesselgp/fit.py",
+        "if len(rel_residual) == 0 or len(rel_residual) / max(K - 1, 1) > tol.GC_LAMBDA_VERTICES:",
+        "if len(rel_residual) == 0 or len(rel_residual) / max(K - 1, 1) >= tol.GC_LAMBDA_VERTICES:",
+        ["tests/test_refined.py"],
+    ),
+    "sparse_wall_ignores_scatter": (
+        "vesselgp/fit.py",
+        "return len(rel_residual) if (sigma / tol.GC_LAMBDA_SCATTER) ** 2 <= tol.GC_REFINE_LAMBDA else None",
+        "return len(rel_residual)",
+        ["tests/test_refined.py", "tests/test_real_shapes.py", "tests/test_twist_real.py"],
+    ),
+    "no_coarsening": (
+        "vesselgp/fit.py",
+        "                out.append(replace(it, lam=lam, sparse=sparse_clean_wall(rel, K)))",
+        "                out.append(replace(it, lam=lam))",
+        ["tests/test_refined.py", "tests/test_real_shapes.py"],
+    ),
+    "coarsening_to_the_wrong_count": (
+        "vesselgp/fit.py",
+        "K2 = max(tol.GC_MIN_NODES, int(it.sparse // tol.GC_COARSEN_VERTICES) + 1)",
+        "K2 = max(tol.GC_MIN_NODES, int(it.sparse // tol.GC_LAMBDA_VERTICES) + 1)",
+        ["tests/test_refined.py"],
+    ),
     "tree_branches_refined_and_resampled_back": (
         "vesselgp/tree.py",
         "singular=\"stop\", resample=False)",

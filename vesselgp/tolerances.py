@@ -83,6 +83,12 @@ GC_REFINE_MOVE_SAMPLES = 64
 #: ... not counting the nodes within this many radii of a free end (a tree branch's junction side: the junction
 #: redraws it; on the synthetic trees the refinement moved it by up to 0.03 radii there, and 1e-4 elsewhere).
 GC_REFINE_FREE_END = 3.0
+#: A converged fit whose final circle fit kept Eq. 2's weight only for too few data vertices per node (at
+#: most GC_LAMBDA_VERTICES) on a wall that scatters as little as a refined one is fitted again on fewer
+#: nodes, this many data vertices per segment (vesselgp.fit.refined): the XCAT network tree's thin branches.
+GC_COARSEN_VERTICES = 22
+#: ... when that spaces its nodes at most this many times as far apart (a wall much sparser keeps its fit).
+GC_COARSEN_SPACING = 1.5
 #: Robust reweighting: a vertex whose distance to the axis departs from the
 #: local radius by more than this many robust standard deviations gets weight 0
 #: (side branches, cap remnants).
