@@ -641,8 +641,8 @@ def refined(problems, states, *, lam, mu, max_iter, singular="raise", resample=T
             log.debug("the fit's refinement on %d nodes moved its axis %.2g radii; the axis on %d nodes is kept",
                       K2, moved, K)
             continue
-        log.debug("fit refined on %d nodes (Eq. 2's weight was lowered to %.3g of lam): %d more iterations", K2,
-                  it.lam / lam, fine.count)
+        log.debug("fit refined on %d nodes instead of %d (Eq. 2's final weight %.3g of lam, was %.3g): %d more "
+                  "iterations", K2, K, fine.lam / lam, it.lam / lam, fine.count)
         out[b] = replace(fine, nodes=resample_arclength(fine.nodes, K) if resample else fine.nodes,
                          count=it.count + fine.count)
     return out
