@@ -280,6 +280,9 @@ def test_a_sparse_wall_is_coarsened_at_most_by_its_spacing_limit(sparse, K2):
     assert fit._refit_nodes(it, 0.3) == K2
     assert fit._refit_nodes(fit.replace(it, sparse=None), 0.3) is None  # a wall that is not sparse and clean
     assert fit._refit_nodes(fit.replace(it, lam=0.15), 0.3) == 39  # a lowered weight: refined, (30 / 0.8) + 1
+    # never under GC_MIN_NODES: 15 nodes whose wall would give 11 at 22 vertices each get 12
+    short = fit._Iteration(np.zeros((15, 3)), None, None, 5, True, lam=0.3, sparse=tol.GC_COARSEN_VERTICES * 10)
+    assert tol.GC_MIN_NODES == 12 and fit._refit_nodes(short, 0.3) == 12
 
 
 def test_a_sparse_clean_arch_is_closer_to_its_centre_line_on_fewer_nodes():

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import igl
 import numpy as np
 from scipy.interpolate import PPoly, make_interp_spline, make_smoothing_spline
 from scipy.linalg.lapack import dgtsv
@@ -28,11 +29,45 @@ __all__ = [
     "rotation_minimizing_frames",
     "curve_tangents",
     "chord_length",
+    "polyline_feet",
     "resample_arclength",
     "frenet",
     "FrenetResult",
     "transport_angle",
 ]
+
+
+def polyline_feet(X, L, aL=None):
+    """Each point's foot on the polyline ``L``: its arc length, position and distance.
+
+    libigl's point-to-mesh distance (``igl.point_mesh_squared_distance``) with the polyline's segments as
+    the elements. A point beyond an end has that end point as its foot.
+
+    Parameters
+    ----------
+    X : (q, 3) float64
+    L : (k, 3) float64
+        The polyline, k >= 2.
+    aL : (k,) float64, optional
+        Its arc lengths (default :func:`chord_length` of ``L``).
+
+    Returns
+    -------
+    a : (q,) float64
+    foot : (q, 3) float64
+    d : (q,) float64
+
+    Examples
+    --------
+    >>> a, foot, d = polyline_feet(np.array([[1.0, 2.0, 0.0], [5.0, 0.0, 0.0]]), np.array([[0.0, 0, 0], [3.0, 0, 0]]))
+    >>> a.tolist(), d.tolist()
+    ([1.0, 3.0], [2.0, 2.0])
+    """
+    if aL is None:
+        aL = _chords(L)
+    E = np.c_[np.arange(len(L) - 1), np.arange(1, len(L))]
+    d2, seg, foot = igl.point_mesh_squared_distance(X, L, E)
+    return aL[seg] + np.linalg.norm(foot - L[seg], axis=1), foot, np.sqrt(d2)
 
 
 def chord_length(P):

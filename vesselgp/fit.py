@@ -53,7 +53,7 @@ from ._validate import as_vector
 from .checks import cylinder_checks
 from .axis import (Axis, AxisStack, circle_fit_solve, circle_fit_sums, hat, interp_frames,
                    banded_spd_or_none, local_coords, solve_banded_spd)
-from .curves import _chords, _resample_arclength, chord_length, resample_arclength
+from .curves import _chords, _resample_arclength, chord_length, polyline_feet, resample_arclength
 from .errors import InvalidMeshError, NotTubularError, OptionError
 from .inside import check_axis_bend, check_axis_inside, sharp_bends
 from .mesh import select_ends
@@ -703,11 +703,10 @@ def _refinement_move(first, fine, pin, rscale):
     along it).
     """
     L = resample_arclength(first, tol.GC_REFINE_MOVE_SAMPLES * (len(first) - 1) + 1)
-    E = np.c_[np.arange(len(L) - 1), np.arange(1, len(L))]
-    d2, _, foot = igl.point_mesh_squared_distance(fine, L, E)
+    _, foot, d = polyline_feet(fine, L)
     counted = _away_from_free_ends(chord_length(fine), pin, rscale)
     counted &= ~(np.all(foot == L[0], axis=1) | np.all(foot == L[-1], axis=1))
-    return float(np.sqrt(d2[counted].max())) / rscale if counted.any() else 0.0
+    return float(d[counted].max()) / rscale if counted.any() else 0.0
 
 
 def _checked(gc, pm, e0, e1, whole, rscale):
@@ -1024,12 +1023,17 @@ def data_lambda(lam, rel_residual, K):
     """
     if len(rel_residual) == 0:
         return lam
-    sigma = 1.4826 * float(np.median(np.abs(rel_residual)))
-    per = len(rel_residual) / max(K - 1, 1)
+    factor, per = _wall_scatter(rel_residual, K)
     if per <= tol.GC_LAMBDA_VERTICES:  # a sparse wall: few vertices per node leave its circles loose
         return lam
-    factor = (sigma / tol.GC_LAMBDA_SCATTER) ** 2
     return lam * float(np.clip(factor, tol.GC_LAMBDA_FLOOR, 1.0))
+
+
+def _wall_scatter(rel_residual, K):
+    """``(sigma / GC_LAMBDA_SCATTER)^2`` of the data vertices' ``rel_residual`` (sigma their robust standard
+    deviation, 1.4826 x the median absolute value) and their number per segment of ``K`` nodes."""
+    sigma = 1.4826 * float(np.median(np.abs(rel_residual)))
+    return (sigma / tol.GC_LAMBDA_SCATTER) ** 2, len(rel_residual) / max(K - 1, 1)
 
 
 def sparse_clean_wall(rel_residual, K):
@@ -1045,10 +1049,10 @@ def sparse_clean_wall(rel_residual, K):
     int or None
         The number of data vertices, or None for a wall that is dense enough, or scatters too much.
     """
-    if len(rel_residual) == 0 or len(rel_residual) / max(K - 1, 1) > tol.GC_LAMBDA_VERTICES:
+    if len(rel_residual) == 0:
         return None
-    sigma = 1.4826 * float(np.median(np.abs(rel_residual)))
-    return len(rel_residual) if (sigma / tol.GC_LAMBDA_SCATTER) ** 2 <= tol.GC_REFINE_LAMBDA else None
+    factor, per = _wall_scatter(rel_residual, K)
+    return len(rel_residual) if per <= tol.GC_LAMBDA_VERTICES and factor <= tol.GC_REFINE_LAMBDA else None
 
 
 def _rel_residual(s, local, w, radii):

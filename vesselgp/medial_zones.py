@@ -31,25 +31,14 @@ takes the centre line everywhere; vesselgp where the tube model cannot.
 """
 from __future__ import annotations
 
-import igl
 import numpy as np
 
 from . import tolerances as tol
 from ._arrays import true_runs
 from .axis import Axis
-from .curves import chord_length, resample_arclength
+from .curves import chord_length, polyline_feet, resample_arclength
 
 __all__ = ["medial_zones"]
-
-
-def _feet(X, L, aL):
-    """Each point's foot on the polyline ``L`` (arc lengths ``aL``): its arc length, position and distance.
-
-    libigl's point-to-mesh distance with the polyline's segments as the elements.
-    """
-    E = np.c_[np.arange(len(L) - 1), np.arange(1, len(L))]
-    d2, seg, foot = igl.point_mesh_squared_distance(X, L, E)
-    return aL[seg] + np.linalg.norm(foot - L[seg], axis=1), foot, np.sqrt(d2)
 
 
 def medial_zones(nodes, line, radius, rscale, *, through=(False, False), fit_radius=None, skip_start=0.0,
@@ -112,7 +101,7 @@ def medial_zones(nodes, line, radius, rscale, *, through=(False, False), fit_rad
     n = int(np.clip(chord_length(nodes)[-1] / (tol.TREE_MEDIAL_SAMPLING * rscale), len(nodes),
                     tol.TREE_MEDIAL_MAX_SAMPLES))
     X = resample_arclength(nodes, n)
-    a, foot, d = _feet(X, line, aL)
+    a, foot, d = polyline_feet(X, line, aL)
     Ri = np.interp(a, aL, R)
     inner = ((a > 0.0) | through[0]) & ((a < aL[-1]) | through[1])
     bad = d > tol.TREE_MEDIAL_DEPARTURE * Ri

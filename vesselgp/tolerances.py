@@ -66,9 +66,9 @@ GC_MU = 1e-1
 GC_LAMBDA_SCATTER = 0.01
 GC_LAMBDA_VERTICES = 20
 GC_LAMBDA_FLOOR = 0.05
-#: A single vessel's fit whose final circle fit lowered Eq. 2's weight to at most GC_REFINE_LAMBDA of ``lam``
-#: (a clean, densely meshed circular wall: scatter under 0.7 % of the radius) is iterated again from its axis
-#: on nodes GC_REFINE_SPACING times as far apart (:func:`vesselgp.fit._refined`, issue #48).
+#: A fit (a single vessel, a tree's branch) whose final circle fit lowered Eq. 2's weight to at most
+#: GC_REFINE_LAMBDA of ``lam`` (a clean, densely meshed circular wall: scatter under 0.7 % of the radius) is
+#: iterated again from its axis on nodes GC_REFINE_SPACING times as far apart (vesselgp.fit.refined, issue #48).
 GC_REFINE_LAMBDA = 0.5
 GC_REFINE_SPACING = 0.8
 #: ... and is given up (the first fit kept) when its step grows this many iterations in a row once its outlier
