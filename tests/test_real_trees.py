@@ -445,7 +445,17 @@ def test_a_tree_says_once_how_its_branches_were_fitted(caplog):
     V, F = vesselgp.read_mesh(REAL / name)[:2]
     with caplog.at_level(logging.INFO, logger="vesselgp"):
         tree = vesselgp.fit_vessel_tree(V, F)
-    assert not [r for r in caplog.records if r.levelno >= logging.WARNING]
+    warned = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    # the one warning is the check of the axis against its wall's centre (issue #48), where VMTK's line (outside
+    # truth) is as far from the axis, beyond the warning's limit: branch 11, 0.13 radii off, VMTK 0.12
+    assert all("off the centre of its wall" in m for m in warned) and len(warned) <= 1
+    if warned:
+        from _reference import polyline_distance
+
+        oc = tree.checks.off_centre
+        g = tree.branches[oc.branch]
+        d = min(float(polyline_distance(oc.point[None], P)[0]) for P, _ in vmtk_lines(name))
+        assert d / float(g.radius_at(oc.s)[0]) >= tol.CHECK_CENTRE_WARN
     lines = [r.getMessage() for r in caplog.records if "branch fits" in r.getMessage()]
     assert len(lines) == 1 and "every axis passed the checks" in lines[0]
     kinds = set(tree.branch_fit)

@@ -31,6 +31,10 @@ this module checks for, on every fit of a whole mesh (:func:`vesselgp.fit_vessel
   aneurysm remeshed at 2 edges, whose sac is then not reported as a bulge: warned), and a vessel
   whose end is left out of a 4-tip tree leaves 2.5-6.9; the intracranial aneurysm's sac, left
   undescribed, 3.0 (its wall was hidden in a daughter's mouth, unbounded then).
+* **The axis runs through its wall's centre.** Circles fitted to the judged wall in windows along each
+  branch with no smoothing (:func:`vesselgp.wall_circles.wall_circles`) give the wall's own centre; an axis
+  farther from it than ``CHECK_CENTRE_WARN`` radii plus ``CHECK_CENTRE_SIGMAS`` standard errors is named in a
+  WARNING (:func:`off_centre`, :func:`check_centre`; the fit stands: a lumen far from round also reads so).
 
 :class:`FitChecks` holds what was measured; ``checks`` of ``axis.json`` and ``tree.json``
 report it.
@@ -48,9 +52,10 @@ from ._per_vertex import rows_of, stored_rows
 from ._arrays import within_balls
 from .bulges import tree_bulges
 from .errors import NotTubularError
+from .wall_circles import wall_circles
 from .mesh._ends_format import format_point
 
-__all__ = ["FitChecks", "Uncovered", "cylinder_checks", "end_gaps", "fit_checks", "wall_coverage"]
+__all__ = ["FitChecks", "OffCentre", "Uncovered", "check_centre", "off_centre", "cylinder_checks", "end_gaps", "fit_checks", "wall_coverage"]
 
 log = logging.getLogger(__name__)
 
@@ -81,6 +86,31 @@ class Uncovered:
 
 
 @dataclass(frozen=True)
+class OffCentre:
+    """Where an axis runs farthest from its wall's own centre (:func:`off_centre`).
+
+    Attributes
+    ----------
+    point : (3,) float64
+        The axis point there.
+    branch : int
+        Its branch (0 for a single vessel).
+    s : float
+        Its normalised arc length on the branch.
+    offset : float
+        The distance from the axis to the centre of the wall's circle there, in its radii.
+    se : float
+        The offset's standard error, in radii.
+    """
+
+    point: np.ndarray
+    branch: int
+    s: float
+    offset: float
+    se: float
+
+
+@dataclass(frozen=True)
 class FitChecks:
     """What the checks of a fit against its mesh measured (see the module notes).
 
@@ -95,11 +125,15 @@ class FitChecks:
         of a branching mesh's ends, not the whole mesh (not judged).
     uncovered : tuple of Uncovered
         The uncovered pieces, largest first.
+    off_centre : OffCentre or None
+        Where the axis runs farthest from its wall's own centre, beyond that centre's uncertainty (None when
+        not judged: a path between two of a branching mesh's ends, or no window with its wall all round).
     """
 
     end_gaps: np.ndarray
     covered_fraction: float
     uncovered: tuple
+    off_centre: OffCentre | None = None
 
     @property
     def worst_end_gap(self):
@@ -119,7 +153,11 @@ class FitChecks:
                 "largest_uncovered_radii": self.largest_uncovered,
                 "uncovered_limit_radii": tol.CHECK_MAX_UNCOVERED,
                 "uncovered": [{"point": u.point, "area": u.area, "radius": u.radius, "size_radii": u.size,
-                               "branch": u.branch} for u in self.uncovered[:tol.CHECK_LIST_MAX]]}
+                               "branch": u.branch} for u in self.uncovered[:tol.CHECK_LIST_MAX]],
+                "off_centre": None if self.off_centre is None else {
+                    "point": self.off_centre.point, "branch": self.off_centre.branch, "s": self.off_centre.s,
+                    "offset_radii": self.off_centre.offset, "standard_error_radii": self.off_centre.se,
+                    "warn_above_radii": tol.CHECK_CENTRE_WARN, "sigmas": tol.CHECK_CENTRE_SIGMAS}}
 
 
 def end_gaps(paths, ends):
@@ -263,6 +301,48 @@ def check_coverage(uncovered, scale):
         "or a cap that is not listed, cut the vessel open there")
 
 
+def off_centre(tree, judged):
+    """The place where a fitted tree's (or single vessel's) axis runs farthest from its wall's own centre.
+
+    Each branch's judged wall vertices (``judged``, over the mesh: no end region, junction zone, mouth, medial
+    zone or bulge) get circles fitted in windows of ``CHECK_CENTRE_REACH`` radii either side, one every
+    ``CHECK_CENTRE_STEP`` of its smallest radius (:func:`vesselgp.wall_circles.wall_circles`: Eq. 2's circle
+    fit without its lam term); the axis should run through their centres.
+
+    Returns
+    -------
+    OffCentre or None
+        The window whose centre is farthest beyond its own uncertainty (offset minus ``CHECK_CENTRE_SIGMAS``
+        standard errors), None when no window is judged.
+    """
+    worst = None
+    for b, (g, m) in enumerate(zip(tree.branches, _rows_by_branch(tree.vertex_branch, len(tree.branches)))):
+        gs = rows_of(g, "vertex_s", m)
+        o = np.argsort(gs, kind="stable")
+        use = (judged[m] & (gs > 0) & (gs < 1))[o]
+        c = wall_circles(gs[o] * g.length, rows_of(g, "vertex_local", m)[o][:, 1:], use,
+                         lambda x, g=g: g.radius_at(x / g.length), tol.CHECK_CENTRE_REACH, tol.CHECK_CENTRE_STEP)
+        if not len(c.s0):
+            continue
+        d, se = np.hypot(c.centre[:, 0], c.centre[:, 1]) / c.radius, c.se / c.radius
+        k = int(np.argmax(d - tol.CHECK_CENTRE_SIGMAS * se))
+        if worst is None or d[k] - tol.CHECK_CENTRE_SIGMAS * se[k] > worst.offset - tol.CHECK_CENTRE_SIGMAS * worst.se:
+            p, _ = g.at(np.array([c.s0[k] / g.length]))
+            worst = OffCentre(p[0], b, min(float(c.s0[k] / g.length), 1.0), float(d[k]), float(se[k]))
+    return worst
+
+
+def check_centre(worst, scale):
+    """Log a WARNING when the axis runs off its wall's centre by more than ``CHECK_CENTRE_WARN`` radii plus
+    ``CHECK_CENTRE_SIGMAS`` standard errors (``worst``: :func:`off_centre`'s); the fit stands."""
+    if worst is None or worst.offset <= tol.CHECK_CENTRE_WARN + tol.CHECK_CENTRE_SIGMAS * worst.se:
+        return
+    log.warning("the axis runs %.2g radii (+- %.2g) off the centre of its wall at %s (branch %d, s = %.3f): the "
+                "fit smoothed or rejected the wall there (a stenosis, a sparse bend), or the lumen is far from round "
+                "there (checks in the outputs)", worst.offset, worst.se, format_point(worst.point, scale),
+                worst.branch, worst.s)
+
+
 def _rows_by_branch(vertex_branch, n_branches):
     """Each branch's vertex rows, increasing, from one sort (not one sweep of the mesh per branch: issue #47)."""
     order = np.argsort(vertex_branch, kind="stable")
@@ -345,7 +425,9 @@ def fit_checks(tree, pm, balls=None):
     fraction, pieces = wall_coverage(V, pm.topology.adjacency, area, D, R, exempt, zone, zone_radius,
                                      tree.vertex_branch, balls)
     check_coverage(pieces, scale)
-    return FitChecks(gaps, fraction, pieces)
+    centre = off_centre(tree, (area > 0) & ~exempt & ~zone)
+    check_centre(centre, scale)
+    return FitChecks(gaps, fraction, pieces, centre)
 
 
 class _OneBranch:

@@ -1,0 +1,141 @@
+"""The wall's own circles along an axis and the check of an axis against them (issue #48: a fit that smoothed or
+rejected its wall and answered an axis off the lumen, every other check passing)."""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from _data import needs_real, repo_module, vmtk_lines
+from _reference import polyline_distance
+import vesselgp
+from vesselgp import tolerances as tol
+from vesselgp.checks import OffCentre, check_centre
+from vesselgp.wall_circles import wall_circles
+
+rs = repo_module("real_shapes")
+
+
+def _rings(centre, radius, n_around=16, step=0.1, length=10.0, phase=0.0):
+    """Rings every ``step`` along z of a wall whose centre is ``centre(z)`` (2,) and radius ``radius(z)`` from the
+    axis z: the offsets in the frame (x, y) and the arc lengths."""
+    z = np.arange(0.0, length + 1e-9, step)
+    t = np.linspace(0, 2 * np.pi, n_around + 1)[:-1] + phase
+    Z, T = np.meshgrid(z, t, indexing="ij")
+    c = np.array([centre(zz) for zz in z])[:, None, :]
+    r = np.array([radius(zz) for zz in z])[:, None]
+    local = np.stack([c[..., 0] + r * np.cos(T), c[..., 1] + r * np.sin(T)], axis=-1).reshape(-1, 2)
+    return Z.ravel(), local
+
+
+@pytest.mark.parametrize("offset", [0.02, 0.3, 0.6])
+def test_circles_off_the_axis_are_found_exactly(offset):
+    """Kasa's fit is exact for vertices on circles however far off the axis: the centre, radius and no scatter."""
+    s, local = _rings(lambda z: (offset * np.cos(0.3 * z), offset * np.sin(0.3 * z)), lambda z: 1.0, step=0.05)
+    c = wall_circles(s, local, np.ones(len(s), bool), lambda x: np.ones_like(x), 1.0, 0.5)
+    assert len(c.s0) == 21
+    # a centre that turns along the window is fitted linearly: the error is its curvature over the window
+    truth = offset * np.c_[np.cos(0.3 * c.s0), np.sin(0.3 * c.s0)]
+    err = np.linalg.norm(c.centre - truth, axis=1)
+    inner = (c.s0 > 1.0) & (c.s0 < 9.0)
+    assert err[inner].max() <= 0.3 ** 2 * offset / 6 * 1.5
+    assert np.abs(c.radius[inner] - 1.0).max() <= 0.3 ** 2 * offset ** 2
+    assert np.hypot(*c.centre.T).min() > 0.8 * offset
+
+
+def test_a_taper_and_a_polygon_leave_no_offset():
+    """A cone (radius 1 -> 0.5) of 8-gons, each turned half a step from the last: no centre off the axis (an
+    8-gon's vertices have no first harmonic about its centre) and the radius at each window's centre."""
+    s, local = _rings(lambda z: (0.0, 0.0), lambda z: 1.0 - 0.05 * z, n_around=8, step=0.25)
+    k = np.repeat(np.arange(41), 8)
+    ang = np.pi / 8 * (k % 2)
+    rot = np.c_[np.cos(ang) * local[:, 0] - np.sin(ang) * local[:, 1], np.sin(ang) * local[:, 0] + np.cos(ang) * local[:, 1]]
+    c = wall_circles(s, rot, np.ones(len(s), bool), lambda x: 1.0 - 0.05 * x, 1.0, 0.5)
+    assert np.hypot(*c.centre.T).max() <= 1e-9
+    assert np.allclose(c.radius, 1.0 - 0.05 * c.s0, atol=2e-3)
+
+
+def _arc_spread(alpha):
+    """The smaller principal variance of unit directions spread evenly over an arc of half-angle ``alpha``."""
+    sx = np.sin(alpha) / alpha
+    var_x = 0.5 * (1 + np.sin(2 * alpha) / (2 * alpha)) - sx * sx
+    var_y = 0.5 * (1 - np.sin(2 * alpha) / (2 * alpha))
+    return min(var_x, var_y)
+
+
+@pytest.mark.parametrize("factor, judged", [(1.01, True), (0.99, False)])
+def test_a_window_is_judged_only_with_its_wall_spread_round_the_axis(factor, judged):
+    """The spread guard at its edge: a wall that covers an arc whose directions' smaller variance is just above
+    CHECK_CENTRE_MIN_SPREAD is judged, one just below is not (dense arcs: the continuous value)."""
+    alpha = brentq(lambda a: _arc_spread(a) - tol.CHECK_CENTRE_MIN_SPREAD, 0.5, np.pi - 1e-6) * factor
+    z = np.arange(0.0, 2.0 + 1e-9, 0.05)
+    t = np.linspace(-alpha, alpha, 2001)
+    Z, T = np.meshgrid(z, t, indexing="ij")
+    local = np.c_[np.cos(T.ravel()), np.sin(T.ravel())]
+    c = wall_circles(Z.ravel(), local, np.ones(T.size, bool), lambda x: np.ones_like(x), 1.0, 0.5)
+    mid = np.abs(c.s0 - 1.0) < 1e-9
+    assert mid.any() == judged
+
+
+@pytest.mark.parametrize("offset, warned", [(0.099, False), (0.101, True)])
+def test_the_warning_at_its_edge(offset, warned, caplog):
+    """An axis CHECK_CENTRE_WARN radii off its wall's centre, found by the circles of exact rings (no scatter), is
+    not named; one just past it is."""
+    s, local = _rings(lambda z: (offset, 0.0), lambda z: 1.0)
+    c = wall_circles(s, local, np.ones(len(s), bool), lambda x: np.ones_like(x), 1.0, 0.5)
+    d = np.hypot(*c.centre.T) / c.radius
+    k = int(np.argmax(d))
+    with caplog.at_level(logging.WARNING, logger="vesselgp.checks"):
+        check_centre(OffCentre(np.zeros(3), 0, c.s0[k] / 10.0, float(d[k]), float(c.se[k] / c.radius[k])), 10.0)
+    assert ("off the centre of its wall" in caplog.text) == warned
+
+
+@needs_real("xra_coronary_single_branch_open.stl")
+def test_the_swept_coronary_is_centred_and_not_warned(caplog):
+    """Exact circles swept along the real coronary's line: its fit is on the line (docs/accuracy.md), so the
+    reported offset is within 1 % r and nothing is named."""
+    ves = rs.case_vessel("coronary")
+    with caplog.at_level(logging.WARNING, logger="vesselgp.checks"):
+        gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    oc = gc.checks.off_centre
+    assert oc is not None and oc.offset <= 0.01
+    assert "off the centre of its wall" not in caplog.text
+    assert gc.checks.to_dict()["off_centre"]["offset_radii"] == oc.offset
+
+
+@needs_real("xra_coronary_single_branch_open.stl")
+def test_the_real_coronarys_stenosis_is_named_where_vmtk_sees_the_axis_off(caplog):
+    """The real X-ray coronary's stenosis (its radius 1.2 -> 0.85 mm within 2 mm): the fit rejected most of its
+    wall there and its axis cut across. The warning names the place, and VMTK's line (outside truth) is as far
+    from the axis there as the reported offset, within 0.1 radii."""
+    from vesselgp.io.meshfile import read_mesh
+    from _data import REAL
+
+    name = "xra_coronary_single_branch_open.stl"
+    V, F = read_mesh(str(REAL / name))[:2]
+    with caplog.at_level(logging.WARNING, logger="vesselgp.checks"):
+        gc = vesselgp.fit_generalized_cylinder(V, F)
+    oc = gc.checks.off_centre
+    assert "off the centre of its wall" in caplog.text
+    assert oc.offset > tol.CHECK_CENTRE_WARN + tol.CHECK_CENTRE_SIGMAS * oc.se
+    p, _ = gc.at(np.array([oc.s]))
+    assert np.allclose(p[0], oc.point)
+    P, _ = vmtk_lines(name)[0]
+    d = float(polyline_distance(p, P)[0]) / float(gc.radius_at(oc.s)[0])
+    assert abs(d - oc.offset) <= 0.1, (d, oc.offset)
+
+
+@needs_real("xrayangio_xcat-coronary-tree_open.stl")
+def test_the_remeshed_thin_line_is_named_where_its_exact_line_is_off(caplog):
+    """The known wrong answer (the thin XCAT line, 8 points around, remeshed; docs/accuracy.md): still answered,
+    but no longer silently. The warning's place is where the exact centre line is off the axis, by about the
+    reported offset (within 0.1 radii)."""
+    ves = rs.case_vessel("xcat_thin", remesh=True)
+    with caplog.at_level(logging.WARNING, logger="vesselgp.checks"):
+        gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    oc = gc.checks.off_centre
+    assert "off the centre of its wall" in caplog.text
+    d = float(polyline_distance(oc.point[None], ves.truth.centers)[0]) / float(gc.radius_at(oc.s)[0])
+    assert d > tol.CHECK_CENTRE_WARN and abs(d - oc.offset) <= 0.1, (d, oc.offset)
