@@ -148,4 +148,5 @@ def wall_circles(s, local, use, radius, reach, step):
     c = 0.5 * coef[:, 2:4]
     var_c = 0.25 * np.linalg.eigvalsh(Minv[:, 2:4, 2:4])[:, 1] * rss / np.maximum(n - 6.0, 1.0)
     r = np.sqrt(np.maximum(coef[:, 0] + (c * c).sum(axis=1), 0.0))
-    return WallCircles(s0, c, r, coef[:, 1], 0.5 * coef[:, 4:6], np.sqrt(var_c), n)
+    ok = r > 0  # a window whose points fit no circle (power <= 0: not a wall about its axis) is not kept
+    return WallCircles(s0[ok], c[ok], r[ok], coef[ok, 1], 0.5 * coef[ok, 4:6], np.sqrt(var_c[ok]), n[ok])
