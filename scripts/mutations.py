@@ -1756,6 +1756,42 @@ MUTATIONS = {
         "K2 = max(tol.GC_MIN_NODES, int(it.sparse // tol.GC_LAMBDA_VERTICES) + 1)",
         ["tests/test_refined.py"],
     ),
+    "off_centre_first_order_only": (
+        "vesselgp/wall_circles.py",
+        "X = np.c_[np.ones(len(s)), t, p, t[:, None] * p, (p * p).sum(axis=1)]",
+        "X = np.c_[np.ones(len(s)), t, p, t[:, None] * p, np.sqrt((p * p).sum(axis=1))]",
+        ["tests/test_wall_circles.py"],
+    ),
+    "off_centre_without_its_uncertainty": (
+        "vesselgp/checks.py",
+        "if worst is None or worst.offset <= tol.CHECK_CENTRE_WARN + tol.CHECK_CENTRE_SIGMAS * worst.se:",
+        "if worst is None or worst.offset <= tol.CHECK_CENTRE_WARN:",
+        ["tests/test_wall_circles.py", "tests/test_real_trees.py"],
+    ),
+    "off_centre_spread_guard_off": (
+        "vesselgp/wall_circles.py",
+        "np.linalg.eigvalsh(cov_p)[:, 0] >= tol.CHECK_CENTRE_MIN_SPREAD * mean_sq)",
+        "np.linalg.eigvalsh(cov_p)[:, 0] >= 0.0 * mean_sq)",
+        ["tests/test_wall_circles.py"],
+    ),
+    "off_centre_judges_junction_zones": (
+        "vesselgp/checks.py",
+        "centre = off_centre(tree, (area > 0) & ~exempt & ~zone)",
+        "centre = off_centre(tree, (area > 0) & ~zone)",
+        ["tests/test_real_trees.py", "tests/test_wall_circles.py", "tests/test_tree.py"],
+    ),
+    "rescue_takes_wider_circles": (
+        "vesselgp/fit.py",
+        "back[idx[(np.abs(e) <= near) & (rc <= radius(s[idx]) + near)]] = True",
+        "back[idx[np.abs(e) <= near]] = True",
+        ["tests/test_wall_circles.py", "tests/test_real_shapes.py", "tests/test_fit.py"],
+    ),
+    "no_second_fit": (
+        "vesselgp/fit.py",
+        "    if _off_its_wall(first.checks.off_centre):  # a stenosis the first fit's smoothed radius lagged behind",
+        "    if False:",
+        ["tests/test_wall_circles.py"],
+    ),
     "tree_branches_refined_and_resampled_back": (
         "vesselgp/tree.py",
         "singular=\"stop\", resample=False)",

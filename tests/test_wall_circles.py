@@ -105,26 +105,57 @@ def test_the_swept_coronary_is_centred_and_not_warned(caplog):
     assert gc.checks.to_dict()["off_centre"]["offset_radii"] == oc.offset
 
 
+def _stenosis_gap(gc, name):
+    """The farthest VMTK's line (outside truth) lies from the fitted axis over the real coronary's stenosis
+    (s 0.20-0.27), in the fitted radii."""
+    s = np.linspace(0.2, 0.27, 30)
+    p, _ = gc.at(s)
+    return float((polyline_distance(p, vmtk_lines(name)[0][0]) / gc.radius_at(s)).max())
+
+
 @needs_real("xra_coronary_single_branch_open.stl")
-def test_the_real_coronarys_stenosis_is_named_where_vmtk_sees_the_axis_off(caplog):
-    """The real X-ray coronary's stenosis (its radius 1.2 -> 0.85 mm within 2 mm): the fit rejected most of its
-    wall there and its axis cut across. The warning names the place, and VMTK's line (outside truth) is as far
-    from the axis there as the reported offset, within 0.1 radii."""
+def test_the_real_coronarys_stenosis_is_fitted_again_and_followed(caplog, monkeypatch):
+    """The real X-ray coronary's stenosis (its radius 1.2 -> 0.85 mm within 2 mm): the first fit rejected most of
+    its wall there as outliers (the smoothed radius lagging behind), its axis cut across, 0.29 radii from VMTK's
+    line, and the check names it (offset 0.23 r, VMTK 0.28 r from the axis at the named place). Fitted again with
+    the wall on its own circles taken back, the axis follows VMTK's line within 0.12 radii there (0.078
+    measured: the lumen is not round there), and nothing is named."""
+    from vesselgp import fit as vfit
     from vesselgp.io.meshfile import read_mesh
     from _data import REAL
 
     name = "xra_coronary_single_branch_open.stl"
     V, F = read_mesh(str(REAL / name))[:2]
-    with caplog.at_level(logging.WARNING, logger="vesselgp.checks"):
-        gc = vesselgp.fit_generalized_cylinder(V, F)
-    oc = gc.checks.off_centre
+    with monkeypatch.context() as m:
+        m.setattr(vfit, "_off_its_wall", lambda oc: False)  # the first fit only
+        with caplog.at_level(logging.WARNING, logger="vesselgp.checks"):
+            first = vesselgp.fit_generalized_cylinder(V, F)
+    oc = first.checks.off_centre
     assert "off the centre of its wall" in caplog.text
     assert oc.offset > tol.CHECK_CENTRE_WARN + tol.CHECK_CENTRE_SIGMAS * oc.se
-    p, _ = gc.at(np.array([oc.s]))
-    assert np.allclose(p[0], oc.point)
-    P, _ = vmtk_lines(name)[0]
-    d = float(polyline_distance(p, P)[0]) / float(gc.radius_at(oc.s)[0])
+    p, _ = first.at(np.array([oc.s]))
+    d = float(polyline_distance(p, vmtk_lines(name)[0][0])[0]) / float(first.radius_at(oc.s)[0])
     assert abs(d - oc.offset) <= 0.1, (d, oc.offset)
+    assert _stenosis_gap(first, name) >= 0.2
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="vesselgp"):
+        gc = vesselgp.fit_generalized_cylinder(V, F)
+    assert "fitted again with the wall on its own circles" in caplog.text
+    assert "off the centre of its wall" not in caplog.text
+    assert _stenosis_gap(gc, name) <= 0.12
+    assert gc.checks.off_centre.offset <= tol.CHECK_CENTRE_WARN
+
+
+@pytest.mark.parametrize("offset, again", [(0.099, False), (0.101, True)])
+def test_a_fit_is_fitted_again_past_the_warnings_edge(offset, again):
+    """The second fit is tried exactly where the check would warn (the same edge, exact rings: no scatter)."""
+    from vesselgp import fit as vfit
+
+    s, local = _rings(lambda z: (offset, 0.0), lambda z: 1.0)
+    c = wall_circles(s, local, np.ones(len(s), bool), lambda x: np.ones_like(x), 1.0, 0.5)
+    d = np.hypot(*c.centre.T) / c.radius
+    k = int(np.argmax(d))
+    assert vfit._off_its_wall(OffCentre(np.zeros(3), 0, 0.5, float(d[k]), float(c.se[k] / c.radius[k]))) == again
 
 
 @needs_real("xrayangio_xcat-coronary-tree_open.stl")
@@ -139,3 +170,58 @@ def test_the_remeshed_thin_line_is_named_where_its_exact_line_is_off(caplog):
     assert "off the centre of its wall" in caplog.text
     d = float(polyline_distance(oc.point[None], ves.truth.centers)[0]) / float(gc.radius_at(oc.s)[0])
     assert d > tol.CHECK_CENTRE_WARN and abs(d - oc.offset) <= 0.1, (d, oc.offset)
+
+
+def test_the_offsets_uncertainty_covers_its_error_and_holds_the_warning_back(caplog):
+    """A wall 0.12 radii off the axis that scatters radially (5 % of the radius, seeded): in every window the
+    reported standard error covers the offset's error four times over (the uncertainty is the real one), and where
+    the offset is past CHECK_CENTRE_WARN but not past it by four standard errors, nothing is named."""
+    rng = np.random.default_rng(7)
+    s, local = _rings(lambda z: (0.12, 0.0), lambda z: 1.0, n_around=12, step=0.25, length=20.0)
+    rho = np.hypot(*(local - [0.12, 0.0]).T)
+    local = [0.12, 0.0] + (local - [0.12, 0.0]) * (1.0 + 0.05 * rng.standard_normal(len(s)) / rho)[:, None]
+    c = wall_circles(s, local, np.ones(len(s), bool), lambda x: np.ones_like(x), 1.0, 0.5)
+    err = np.linalg.norm(c.centre - [0.12, 0.0], axis=1)
+    assert (err <= 4 * c.se).all() and c.se.min() > 0.005
+    d, se = np.hypot(*c.centre.T) / c.radius, c.se / c.radius
+    k = np.flatnonzero((d > tol.CHECK_CENTRE_WARN) & (d <= tol.CHECK_CENTRE_WARN + tol.CHECK_CENTRE_SIGMAS * se))
+    assert len(k)
+    with caplog.at_level(logging.WARNING, logger="vesselgp.checks"):
+        for j in k:
+            check_centre(OffCentre(np.zeros(3), 0, 0.5, float(d[j]), float(se[j])), 20.0)
+    assert "off the centre of its wall" not in caplog.text
+
+
+def test_a_synthetic_trees_axes_run_through_their_walls_centres():
+    """A 3-tip tree made as segmentations are (marching cubes of exact tubes): away from its junction zones, mouths
+    and ends, every window's wall is centred on the fitted axis within 0.5 % of the radius (3e-5 measured; with
+    the junction zones judged, their flares read 2.5 %)."""
+    from vesselgp.synthetic_tree import synthetic_tree
+
+    t = synthetic_tree(parents=(-1, 0, 0), voxel=0.5, seed=3)
+    tree = vesselgp.fit_vessel_tree(t.V, t.F)
+    oc = tree.checks.off_centre
+    assert oc is not None and oc.offset <= 0.005
+    d, _, _, _ = t.truth.nearest(oc.point[None])
+    assert d[0] <= 0.005 * tree.branches[oc.branch].radius_at(oc.s)[0]
+
+
+def test_only_narrower_circles_take_their_wall_back():
+    """The second fit's outlier test (vesselgp.fit._on_wall_circles) on a unit tube's wall, 32 points around: a
+    stretch narrowed to 0.8 and one widened to 1.3, both rejected by the first test. The narrowing lies on its
+    own circles, no wider than the smoothed fit's: taken back, all of it. The widening's circles are wider (a sac,
+    a flare, a branch's mouth): none of it."""
+    from vesselgp import fit as vfit
+
+    def radius(z):
+        return 0.8 if 4.0 <= z <= 6.0 else 1.3 if 12.0 <= z <= 14.0 else 1.0
+
+    s, loc2 = _rings(lambda z: (0.0, 0.0), radius, n_around=32, step=0.1, length=18.0)
+    local = np.c_[np.zeros(len(s)), loc2]
+    rho = np.hypot(*loc2.T)
+    sel = np.ones(len(s), bool)
+    out = np.abs(rho - 1.0) > 0.04
+    back = vfit._on_wall_circles(s, local, out, 0.01, sel, lambda x: np.ones_like(x))
+    narrow, wide = out & (rho < 1.0), out & (rho > 1.0)
+    inner = narrow & (np.abs(s - 5.0) < 0.25)  # nearest to the window wholly inside the stretch: on its circle
+    assert back[inner].all() and not back[wide].any()

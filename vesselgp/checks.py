@@ -390,7 +390,7 @@ def _zones(V, tree, D, R):
     return exempt, zone, zone_radius
 
 
-def fit_checks(tree, pm, balls=None):
+def fit_checks(tree, pm, balls=None, warn_centre=True):
     """Check a fitted tree (or a single vessel's fit as a one-branch tree) against its mesh.
 
     Parameters
@@ -402,6 +402,9 @@ def fit_checks(tree, pm, balls=None):
         Its mesh (vertices, adjacency, Voronoi areas, end regions).
     balls : ((k, 3) float64, (k,) float64), optional
         The lumen's centre lines as points and inscribed radii (a tree's, :func:`wall_coverage`).
+    warn_centre : bool
+        Whether an axis off its wall's centre is named in a WARNING here (:func:`check_centre`; off for a
+        first fit that may be fitted again).
 
     Returns
     -------
@@ -426,7 +429,8 @@ def fit_checks(tree, pm, balls=None):
                                      tree.vertex_branch, balls)
     check_coverage(pieces, scale)
     centre = off_centre(tree, (area > 0) & ~exempt & ~zone)
-    check_centre(centre, scale)
+    if warn_centre:
+        check_centre(centre, scale)
     return FitChecks(gaps, fraction, pieces, centre)
 
 
@@ -440,12 +444,12 @@ class _OneBranch:
         self.parent, self.junction_zone, self.medial_zones = np.array([-1]), np.zeros(1), (np.zeros((0, 2)),)
 
 
-def cylinder_checks(gc, pm, e0, e1, whole):
+def cylinder_checks(gc, pm, e0, e1, whole, warn_centre=True):
     """:func:`fit_checks` of a single vessel's fit between ends ``e0`` and ``e1``.
 
     ``whole`` says whether the fit covers the whole mesh (a mesh with these two ends only); a path
     between two ends of a branching mesh is checked for its end gaps only (``covered_fraction``
-    None). The path is named by ``gc.ends`` where they are indices into the mesh's ends.
+    None). ``warn_centre`` as :func:`fit_checks`'s. The path is named by ``gc.ends`` where they are indices into the mesh's ends.
     """
     ids = tuple(gc.ends) if min(gc.ends) >= 0 else (0, 1)
     ends, named = {ids[0]: e0, ids[1]: e1}, replace(gc, ends=ids)  # the same arrays, the ends named
@@ -453,4 +457,5 @@ def cylinder_checks(gc, pm, e0, e1, whole):
         gaps = end_gaps((named,), ends)
         check_end_gaps((named,), ends, gaps, pm.winding.scale)
         return FitChecks(gaps, None, ())
-    return fit_checks(_OneBranch(named, ends, tree_bulges((gc,), pm.sacs, (pm.V, pm.topology.adjacency))), pm)
+    return fit_checks(_OneBranch(named, ends, tree_bulges((gc,), pm.sacs, (pm.V, pm.topology.adjacency))), pm,
+                      warn_centre=warn_centre)

@@ -93,6 +93,8 @@ GC_COARSEN_SPACING = 1.5
 #: local radius by more than this many robust standard deviations gets weight 0
 #: (side branches, cap remnants).
 GC_OUTLIER_SIGMAS = 4.0
+#: (In a single vessel's second fit, vesselgp.fit._on_wall_circles, a vertex that close to its wall's own
+#: circle there, one no wider than the smoothed fit's, is kept: issue #48.)
 #: Robust reweighting runs until the axis moves less than this many radii in one
 #: iteration; the outlier set is then kept fixed (IRLS) so the fixed point converges.
 GC_REWEIGHT_UNTIL = 0.005

@@ -48,8 +48,8 @@ class WallCircles:
 
     def residual(self, s, local, within):
         """How far vertices at ``s`` (mesh units) with offsets ``local`` ((q, 2)) lie outside (> 0) or inside the
-        nearest window's circle, to first order (the power over twice the radius); NaN where no window's centre
-        is ``within`` ((q,) mesh units)."""
+        nearest window's circle, to first order (the power over twice the radius), and that circle's radius;
+        both NaN where no window's centre is ``within`` ((q,) mesh units)."""
         if len(self.s0) > 1:
             k = np.clip(np.searchsorted(self.s0, s), 1, len(self.s0) - 1)
             k -= (s - self.s0[k - 1] < self.s0[k] - s)
@@ -59,7 +59,8 @@ class WallCircles:
         c, r = self.centre[k] + self.drift[k] * t[:, None], self.radius[k]
         power = ((local - c) ** 2).sum(axis=1) - r * r - self.slope[k] * t + (c * c).sum(axis=1) - (
             self.centre[k] ** 2).sum(axis=1)
-        return np.where(np.abs(s - self.s0[k]) <= within, power / (2.0 * r), np.nan)
+        near = np.abs(s - self.s0[k]) <= within
+        return np.where(near, power / (2.0 * r), np.nan), np.where(near, r, np.nan)
 
 
 def wall_circles(s, local, use, radius, reach, step):
