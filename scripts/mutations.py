@@ -1792,6 +1792,18 @@ MUTATIONS = {
         "    if False:",
         ["tests/test_wall_circles.py"],
     ),
+    "sparse_wall_off_its_centre_answered": (
+        "vesselgp/fit.py",
+        "    if _off_its_wall(oc) and _sparse_wall(np.count_nonzero((area[sub] > 0) & ~end_region[sub]), len(it.nodes)):",
+        "    if False:",
+        ["tests/test_wall_circles.py", "tests/test_real_shapes.py"],
+    ),
+    "sparse_wall_edge_off_by_one": (
+        "vesselgp/fit.py",
+        "    return n_data <= tol.GC_LAMBDA_VERTICES * (K - 1)",
+        "    return n_data < tol.GC_LAMBDA_VERTICES * (K - 1)",
+        ["tests/test_wall_circles.py"],
+    ),
     "tree_branches_refined_and_resampled_back": (
         "vesselgp/tree.py",
         "singular=\"stop\", resample=False)",

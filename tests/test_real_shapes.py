@@ -112,12 +112,11 @@ def test_cases_the_fit_cannot_follow_are_refused_not_answered(case):
 
 
 @needs_real("xrayangio_xcat-coronary-tree_open.stl")
-@pytest.mark.xfail(strict=True, reason="a known wrong answer (issue #48's closing note of 2026-12-07): the remeshed "
-                   "thin XCAT line is answered 12-31 % r off over 3 mm, its bend's sparse wall rejected as outliers")
 def test_the_remeshed_thin_line_is_refused_or_followed():
     """The thin XCAT line swept 8 points around and remeshed isotropically (docs/accuracy.md, "Real shapes"): the
-    fit must follow it within 5 % r everywhere, or refuse it. It does neither yet: this test says so until it is
-    fixed (strict: it fails once the fit is right, to be turned into a plain test)."""
+    fit must follow it within 5 % r everywhere, or refuse it. It was answered 12-31 % r off over 3 mm of a bend
+    (its sparse wall there rejected as outliers; a strict xfail until 2026-12-07); its axis off its wall's centre
+    on a wall too sparse to fit again is now refused."""
     ves = rs.case_vessel("xcat_thin", remesh=True)
     try:
         gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)

@@ -58,6 +58,7 @@ from .curves import _chords, _resample_arclength, chord_length, polyline_feet, r
 from .errors import InvalidMeshError, NotTubularError, OptionError, VesselError
 from .inside import check_axis_bend, check_axis_inside, sharp_bends
 from .mesh import select_ends
+from .mesh._ends_format import format_point
 from .mesh.scale import scale_of
 from .mesh.geodesic import GeodesicDistances
 from .prepared import CheckedMesh, checked_mesh, prepared_mesh  # noqa: F401 (vesselgp.fit.checked_mesh)
@@ -266,7 +267,7 @@ def _robust_weights(s, local, jac, area, radii, inside, rejected=None, length=No
     mad = np.median(np.abs(e[sel]))
     sigma = max(1.4826 * mad, 0.01 * float(np.median(radii)))
     out = np.abs(e) > tol.GC_OUTLIER_SIGMAS * sigma
-    if length is not None and np.any(out & sel) and np.count_nonzero(sel) > tol.GC_LAMBDA_VERTICES * (len(radii) - 1):
+    if length is not None and np.any(out & sel) and not _sparse_wall(np.count_nonzero(sel), len(radii)):
         out[_on_wall_circles(s * length, local, out & sel, sigma, sel, lambda x: np.interp(
             x / length, np.linspace(0, 1, len(radii)), radii))] = False
     w[out] = 0.0
@@ -585,15 +586,22 @@ def _on_its_wall(first, it, data, checking, *, L0, lam, mu, max_iter):
     """The fit whose axis runs nearer its wall's centre: ``first`` (fixed point ``it``), or, where its axis ran off
     that centre (:func:`_off_its_wall`), the fit again from ``it`` with the outlier test taking back the vertices
     on their wall's own circles (:func:`_on_wall_circles`; issue #48: the real X-ray coronary's stenosis, 84 % of
-    its wall rejected by the first fit, its axis 0.29 radii from VMTK's line there, 0.078 after). The second fit
-    is checked as the first was; one the checks refuse leaves the first (said so at INFO). The one kept is named
+    its wall rejected by the first fit, its axis 0.29 radii from VMTK's line there, 0.078 after); a wall too sparse
+    for that (:func:`_sparse_wall`) is refused instead (the thin XCAT line remeshed, 12-31 % r off its exact line
+    over 3 mm, answered before). The second fit is checked as the first was; one the checks refuse leaves the first (said so at INFO). The one kept is named
     in a WARNING if it is still off (:func:`vesselgp.checks.check_centre`). ``data``: the first fit's vertices,
     subset, topology, end region, areas, end ids and initial normal; ``checking``: its mesh, ends and radius
     scale."""
     V, sub, topo, end_region, area, end_ids, normal = data
     pm, e0, e1, rscale = checking
-    kept = first
-    if _off_its_wall(first.checks.off_centre):  # a stenosis the first fit's smoothed radius lagged behind
+    kept, oc = first, first.checks.off_centre
+    if _off_its_wall(oc) and _sparse_wall(np.count_nonzero((area[sub] > 0) & ~end_region[sub]), len(it.nodes)):
+        raise NotTubularError(
+            f"the fitted axis runs {oc.offset:.2g} radii (+- {oc.se:.2g}) off the centre of its wall at "
+            f"{format_point(oc.point, pm.winding.scale)} (s = {oc.s:.3f}), and the wall is too sparse to fit again "
+            f"(at most {tol.GC_LAMBDA_VERTICES} vertices per axis segment): remesh it finer (vesselgp.clean_mesh "
+            "with a smaller target edge) or fit it on fewer nodes (n_nodes)")
+    if _off_its_wall(oc):  # a stenosis the first fit's smoothed radius lagged behind
         again = fixed_point(it.nodes, it.s, V[sub], area[sub], end_region[sub], rscale, L0, lam=lam, mu=mu,
                             max_iter=max_iter, initial_normal=normal, rescue=True)
         again = _cylinder_of(again, V, sub, topo, end_region, area, mu, lam, end_ids, normal, rescue=True)
@@ -610,6 +618,13 @@ def _on_its_wall(first, it, data, checking, *, L0, lam, mu, max_iter):
             kept = again
     check_centre(kept.checks.off_centre, pm.winding.scale)
     return kept
+
+
+def _sparse_wall(n_data, K):
+    """Whether ``n_data`` data vertices on ``K`` nodes are at most ``GC_LAMBDA_VERTICES`` per axis segment: too
+    few for the fit again with the wall on its own circles (an 8-around ring's fit then wandered 13-15 % r off
+    its line, unconverged), so an axis off its wall's centre there is refused (:func:`_on_its_wall`)."""
+    return n_data <= tol.GC_LAMBDA_VERTICES * (K - 1)
 
 
 def _refined(it, Vs, areas, ends_s, rscale, length0, lam, mu, max_iter, initial_normal):

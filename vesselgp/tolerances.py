@@ -850,7 +850,7 @@ CHECK_CENTRE_MIN_SPREAD = 0.2
 #: half-length squared (vesselgp.wall_circles: a window of one ring determines no change).
 WALL_CIRCLE_RIDGE = 1e-3
 #: An axis farther than this many radii from its wall's centre, beyond CHECK_CENTRE_SIGMAS standard errors of
-#: that centre, is named in a WARNING (the fit stands): the real X-ray coronary's stenosis 0.21 (VMTK's line
+#: that centre, is named in a WARNING (a tree's; a single vessel is fitted again, or refused on a sparse wall): the real X-ray coronary's stenosis 0.21 (VMTK's line
 #: 0.28 radii from the axis there), the thin XCAT line remeshed 0.27 (its exact line 12-31 % r off), an XCAT
 #: branch 0.13 (VMTK 0.12), the pulmonary trunk 0.16 (VMTK 0.06: not round there); swept exact circles at
 #: most 0.003, the other real meshes at most 0.15 within their uncertainty.
