@@ -315,3 +315,32 @@ def test_the_real_coronarys_dilatation_between_its_stenoses_is_where_vmtks_radii
     with monkeypatch.context() as m:
         m.setattr(vfit, "_off_its_wall", lambda oc: False)
         assert not vesselgp.fit_vessel_tree(V, F).bulges
+
+
+def test_the_cli_reports_the_axis_off_its_walls_centre_against_geometry(tmp_path, capsys):
+    """`vesselgp fit` of a helix with a one-sided plaque (above): axis.json's checks.off_centre and the printed
+    checks line give the same offset; its point is an axis point (on axis.json's centre line, within the
+    sampling), and that point's distance to the exact wall's centre line agrees with the offset within 0.05 radii
+    plus four standard errors (the window's centre against the nearest exact section's)."""
+    import json
+
+    import meshio
+
+    from vesselgp.cli import main
+    from vesselgp.synthetic import synthetic_vessel
+
+    ves = synthetic_vessel("helix", radius=1.5, n_around=64, remesh=False,
+                           bulges=[{"s0": 0.5, "width": 0.03, "amplitude": -0.4, "lobes": 1, "phase": 0.0}])
+    path = tmp_path / "plaque.ply"
+    meshio.write(str(path), meshio.Mesh(ves.V, [("triangle", ves.F)]))
+    assert main(["fit", str(path), "-o", str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out
+    d = json.loads((tmp_path / "out" / "axis.json").read_text())
+    oc = d["checks"]["off_centre"]
+    assert f"off its wall's centre by {oc['offset_radii']:.2g} radii" in printed
+    P = np.asarray(d["centers"])
+    assert float(polyline_distance(np.asarray(oc["point"])[None], P)[0]) <= 0.01 * 1.5
+    C = _wall_centre_line(ves.truth)
+    r = float(np.interp(oc["s"], ves.truth.s, ves.truth.radii))
+    dist = float(polyline_distance(np.asarray(oc["point"])[None], C)[0]) / r
+    assert abs(dist - oc["offset_radii"]) <= 0.05 + 4 * oc["standard_error_radii"], (dist, oc)

@@ -257,13 +257,19 @@ def _checks_text(c):
     Examples
     --------
     >>> print(_checks_text({"worst_end_gap_radii": 0.0, "covered_fraction": 0.99961,
-    ...                     "largest_uncovered_radii": 0.21, "uncovered_limit_radii": 1.5}))
-    checks: every end reached (worst gap 0.00 end radii), 99.96 % of the wall covered (largest uncovered piece 0.21 radii of wall, at most 1.5)
+    ...                     "largest_uncovered_radii": 0.21, "uncovered_limit_radii": 1.5,
+    ...                     "off_centre": {"offset_radii": 0.045, "standard_error_radii": 0.0067,
+    ...                                    "warn_above_radii": 0.1, "sigmas": 4.0}}))
+    checks: every end reached (worst gap 0.00 end radii), 99.96 % of the wall covered (largest uncovered piece 0.21 radii of wall, at most 1.5), the axis off its wall's centre by 0.045 radii (+- 0.0067) at worst (limit 0.1 + 4 standard errors)
     """
     cover = ("coverage not judged (a path between two of the mesh's ends)" if c["covered_fraction"] is None else
              f"{100 * c['covered_fraction']:.2f} % of the wall covered (largest uncovered piece "
              f"{c['largest_uncovered_radii']:.2f} radii of wall, at most {c['uncovered_limit_radii']:g})")
-    return f"checks: every end reached (worst gap {c['worst_end_gap_radii']:.2f} end radii), {cover}"
+    oc = c.get("off_centre")
+    centre = "" if oc is None else (
+        f", the axis off its wall's centre by {oc['offset_radii']:.2g} radii (+- {oc['standard_error_radii']:.2g}) at "
+        f"worst (limit {oc['warn_above_radii']:g} + {oc['sigmas']:g} standard errors)")
+    return f"checks: every end reached (worst gap {c['worst_end_gap_radii']:.2f} end radii), {cover}{centre}"
 
 
 def cmd_torsion(args):
