@@ -1804,6 +1804,12 @@ MUTATIONS = {
         "    return n_data < tol.GC_LAMBDA_VERTICES * (K - 1)",
         ["tests/test_wall_circles.py"],
     ),
+    "wall_circle_vertex_guard_off_by_one": (
+        "vesselgp/wall_circles.py",
+        "    keep = (n >= tol.CHECK_CENTRE_MIN_VERTICES) & (",
+        "    keep = (n > tol.CHECK_CENTRE_MIN_VERTICES) & (",
+        ["tests/test_wall_circles.py"],
+    ),
     "tree_branches_refined_and_resampled_back": (
         "vesselgp/tree.py",
         "singular=\"stop\", resample=False)",

@@ -344,3 +344,16 @@ def test_the_cli_reports_the_axis_off_its_walls_centre_against_geometry(tmp_path
     r = float(np.interp(oc["s"], ves.truth.s, ves.truth.radii))
     dist = float(polyline_distance(np.asarray(oc["point"])[None], C)[0]) / r
     assert abs(dist - oc["offset_radii"]) <= 0.05 + 4 * oc["standard_error_radii"], (dist, oc)
+
+
+@pytest.mark.parametrize("n, judged", [(tol.CHECK_CENTRE_MIN_VERTICES, True), (tol.CHECK_CENTRE_MIN_VERTICES - 1, False)])
+def test_a_window_needs_its_vertices(n, judged):
+    """The vertex guard at its edge: one ring of CHECK_CENTRE_MIN_VERTICES points spread evenly round a circle 0.2
+    off the axis is a window, judged, its centre found (the ridge holds its changes along the axis at zero); one
+    point fewer is not judged."""
+    t = np.linspace(0, 2 * np.pi, n + 1)[:-1]
+    local = np.c_[0.2 + np.cos(t), np.sin(t)]
+    c = wall_circles(np.full(n, 3.0), local, np.ones(n, bool), lambda x: np.ones_like(x), 1.0, 0.5)
+    assert (len(c.s0) == 1) == judged
+    if judged:
+        assert np.allclose(c.centre[0], [0.2, 0.0], atol=1e-9) and abs(c.radius[0] - 1.0) < 1e-9
