@@ -55,7 +55,8 @@ from .errors import NotTubularError
 from .wall_circles import wall_circles
 from .mesh._ends_format import format_point
 
-__all__ = ["FitChecks", "OffCentre", "Uncovered", "check_centre", "off_centre", "cylinder_checks", "end_gaps", "fit_checks", "wall_coverage"]
+__all__ = ["FitChecks", "OffCentre", "Uncovered", "check_centre", "cylinder_checks", "end_gaps", "fit_checks",
+           "off_centre", "off_its_wall", "wall_coverage"]
 
 log = logging.getLogger(__name__)
 
@@ -332,10 +333,15 @@ def off_centre(tree, judged):
     return worst
 
 
+def off_its_wall(worst):
+    """Whether an axis runs off its wall's centre by more than ``CHECK_CENTRE_WARN`` radii plus
+    ``CHECK_CENTRE_SIGMAS`` standard errors (``worst``: :func:`off_centre`'s, or None)."""
+    return worst is not None and worst.offset > tol.CHECK_CENTRE_WARN + tol.CHECK_CENTRE_SIGMAS * worst.se
+
+
 def check_centre(worst, scale):
-    """Log a WARNING when the axis runs off its wall's centre by more than ``CHECK_CENTRE_WARN`` radii plus
-    ``CHECK_CENTRE_SIGMAS`` standard errors (``worst``: :func:`off_centre`'s); the fit stands."""
-    if worst is None or worst.offset <= tol.CHECK_CENTRE_WARN + tol.CHECK_CENTRE_SIGMAS * worst.se:
+    """Log a WARNING when the axis runs off its wall's centre (:func:`off_its_wall`); the fit stands."""
+    if not off_its_wall(worst):
         return
     log.warning("the axis runs %.2g radii (+- %.2g) off the centre of its wall at %s (branch %d, s = %.3f): the "
                 "fit smoothed or rejected the wall there (a stenosis, a sparse bend), or the lumen is far from round "
@@ -449,7 +455,8 @@ def cylinder_checks(gc, pm, e0, e1, whole, warn_centre=True):
 
     ``whole`` says whether the fit covers the whole mesh (a mesh with these two ends only); a path
     between two ends of a branching mesh is checked for its end gaps only (``covered_fraction``
-    None). ``warn_centre`` as :func:`fit_checks`'s. The path is named by ``gc.ends`` where they are indices into the mesh's ends.
+    None). ``warn_centre`` as :func:`fit_checks`'s. The path is named by ``gc.ends`` where they are
+    indices into the mesh's ends.
     """
     ids = tuple(gc.ends) if min(gc.ends) >= 0 else (0, 1)
     ends, named = {ids[0]: e0, ids[1]: e1}, replace(gc, ends=ids)  # the same arrays, the ends named

@@ -50,8 +50,7 @@ from ._arrays import thinned
 from ._interop import polylines_to_pyvista
 from ._per_vertex import VERTEX_FILLS, PerVertex
 from ._validate import as_vector
-from .checks import check_centre, cylinder_checks
-from .wall_circles import wall_circles
+from .checks import check_centre, cylinder_checks, off_its_wall
 from .axis import (Axis, AxisStack, circle_fit_solve, circle_fit_sums, hat, interp_frames,
                    banded_spd_or_none, local_coords, solve_banded_spd)
 from .curves import _chords, _resample_arclength, chord_length, polyline_feet, resample_arclength
@@ -61,6 +60,7 @@ from .mesh import select_ends
 from .mesh._ends_format import format_point
 from .mesh.scale import scale_of
 from .mesh.geodesic import GeodesicDistances
+from .wall_circles import wall_circles
 from .prepared import CheckedMesh, checked_mesh, prepared_mesh  # noqa: F401 (vesselgp.fit.checked_mesh)
 
 log = logging.getLogger(__name__)
@@ -250,7 +250,9 @@ def _radius_sums(s, rho, w, K, nodeoff=None, total=None):
 
 def _robust_weights(s, local, jac, area, radii, inside, rejected=None, length=None):
     """Area weights divided by the tube-map Jacobian, zeroed outside the axis range
-    and for vertices far from the fitted wall (or for ``rejected`` ones, when given)."""
+    and for vertices far from the fitted wall (or for ``rejected`` ones, when given). With the axis's
+    ``length`` (a second fit's, :attr:`FitProblem.rescue`), a rejected vertex on its wall's own circle is
+    kept (:func:`_on_wall_circles`)."""
     rho = np.hypot(local[:, 1], local[:, 2])
     ok = inside & (jac > tol.GC_MIN_STRETCH)
     w = np.where(ok, area / np.where(ok, jac, 1.0), 0.0)
@@ -290,9 +292,10 @@ def _on_wall_circles(s, local, cand, sigma, sel, radius):
     idx = np.flatnonzero(cand)
     if not len(c.s0) or not len(idx):
         return back
-    e, rc = c.residual(s[idx], local[idx, 1:], tol.CHECK_CENTRE_STEP * radius(s[idx]))
+    r = radius(s[idx])
+    e, rc = c.residual(s[idx], local[idx, 1:], tol.CHECK_CENTRE_STEP * r)
     near = tol.GC_OUTLIER_SIGMAS * sigma
-    back[idx[(np.abs(e) <= near) & (rc <= radius(s[idx]) + near)]] = True
+    back[idx[(np.abs(e) <= near) & (rc <= r + near)]] = True
     return back
 
 
@@ -577,45 +580,46 @@ def _cylinder_of(it, V, sub, topo, end_region, area, mu, lam, end_ids, initial_n
     return cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids, rescue=rescue)
 
 
-def _off_its_wall(oc):
-    """Whether a fit's axis runs off its wall's centre beyond the checks' warning (:func:`vesselgp.checks.off_centre`)."""
-    return oc is not None and oc.offset > tol.CHECK_CENTRE_WARN + tol.CHECK_CENTRE_SIGMAS * oc.se
+_off_its_wall = off_its_wall  # the checks' warning decides a second fit (a module name: tests hold it to the edge)
 
 
 def _on_its_wall(first, it, data, checking, *, L0, lam, mu, max_iter):
     """The fit whose axis runs nearer its wall's centre: ``first`` (fixed point ``it``), or, where its axis ran off
     that centre (:func:`_off_its_wall`), the fit again from ``it`` with the outlier test taking back the vertices
     on their wall's own circles (:func:`_on_wall_circles`; issue #48: the real X-ray coronary's stenosis, 84 % of
-    its wall rejected by the first fit, its axis 0.29 radii from VMTK's line there, 0.078 after); a wall too sparse
-    for that (:func:`_sparse_wall`) is refused instead (the thin XCAT line remeshed, 12-31 % r off its exact line
-    over 3 mm, answered before). The second fit is checked as the first was; one the checks refuse leaves the first (said so at INFO). The one kept is named
-    in a WARNING if it is still off (:func:`vesselgp.checks.check_centre`). ``data``: the first fit's vertices,
-    subset, topology, end region, areas, end ids and initial normal; ``checking``: its mesh, ends and radius
-    scale."""
+    its wall rejected by the first fit, its axis 0.29 radii from VMTK's line there, 0.078 after); a wall too
+    sparse for that (:func:`_sparse_wall`) is refused instead (the thin XCAT line remeshed, 12-31 % r off its
+    exact line over 3 mm, answered before). The second fit is checked as the first was; one the checks refuse
+    leaves the first (said so at INFO). The one kept is named in a WARNING if it is still off
+    (:func:`vesselgp.checks.check_centre`). ``data``: the first fit's vertices, subset, topology, end region,
+    areas, end ids and initial normal; ``checking``: its mesh, ends and radius scale."""
     V, sub, topo, end_region, area, end_ids, normal = data
     pm, e0, e1, rscale = checking
-    kept, oc = first, first.checks.off_centre
-    if _off_its_wall(oc) and _sparse_wall(np.count_nonzero((area[sub] > 0) & ~end_region[sub]), len(it.nodes)):
+    a = first.checks.off_centre
+    if not _off_its_wall(a):
+        check_centre(a, pm.winding.scale)  # the fit kept is always judged by the checks' own rule
+        return first
+    if _sparse_wall(np.count_nonzero((area[sub] > 0) & ~end_region[sub]), len(it.nodes)):
         raise NotTubularError(
-            f"the fitted axis runs {oc.offset:.2g} radii (+- {oc.se:.2g}) off the centre of its wall at "
-            f"{format_point(oc.point, pm.winding.scale)} (s = {oc.s:.3f}), and the wall is too sparse to fit again "
+            f"the fitted axis runs {a.offset:.2g} radii (+- {a.se:.2g}) off the centre of its wall at "
+            f"{format_point(a.point, pm.winding.scale)} (s = {a.s:.3f}), and the wall is too sparse to fit again "
             f"(at most {tol.GC_LAMBDA_VERTICES} vertices per axis segment): remesh it finer (vesselgp.clean_mesh "
             "with a smaller target edge) or fit it on fewer nodes (n_nodes)")
-    if _off_its_wall(oc):  # a stenosis the first fit's smoothed radius lagged behind
-        again = fixed_point(it.nodes, it.s, V[sub], area[sub], end_region[sub], rscale, L0, lam=lam, mu=mu,
-                            max_iter=max_iter, initial_normal=normal, rescue=True)
-        again = _cylinder_of(again, V, sub, topo, end_region, area, mu, lam, end_ids, normal, rescue=True)
-        try:
-            again = _checked(again, pm, e0, e1, whole=True, rscale=rscale, warn_centre=False)
-        except VesselError as err:
-            log.info("the fit again with the wall on its own circles taken back was refused (%s); the first fit "
-                     "stands", err)
-            again = None
-        a, b = first.checks.off_centre, None if again is None else again.checks.off_centre
-        if b is not None and b.offset - tol.CHECK_CENTRE_SIGMAS * b.se < a.offset - tol.CHECK_CENTRE_SIGMAS * a.se:
-            log.info("the axis ran %.2g radii off its wall's centre; fitted again with the wall on its own circles "
-                     "taken back: %.2g", a.offset, b.offset)
-            kept = again
+    kept = first  # a stenosis the first fit's smoothed radius lagged behind: fitted again
+    again = fixed_point(it.nodes, it.s, V[sub], area[sub], end_region[sub], rscale, L0, lam=lam, mu=mu,
+                        max_iter=max_iter, initial_normal=normal, rescue=True)
+    again = _cylinder_of(again, V, sub, topo, end_region, area, mu, lam, end_ids, normal, rescue=True)
+    try:
+        again = _checked(again, pm, e0, e1, whole=True, rscale=rscale, warn_centre=False)
+    except VesselError as err:
+        log.info("the fit again with the wall on its own circles taken back was refused (%s); the first fit "
+                 "stands", err)
+        again = None
+    b = None if again is None else again.checks.off_centre
+    if b is not None and b.offset - tol.CHECK_CENTRE_SIGMAS * b.se < a.offset - tol.CHECK_CENTRE_SIGMAS * a.se:
+        log.info("the axis ran %.2g radii off its wall's centre; fitted again with the wall on its own circles "
+                 "taken back: %.2g", a.offset, b.offset)
+        kept = again
     check_centre(kept.checks.off_centre, pm.winding.scale)
     return kept
 
