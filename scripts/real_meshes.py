@@ -27,6 +27,7 @@ import argparse
 import json
 import subprocess
 import tempfile
+import sys
 import time
 from pathlib import Path
 
@@ -88,6 +89,28 @@ def _coarser(V, F, how, k):
     return m.vertex_matrix().astype(np.float64), m.face_matrix().astype(np.int64)
 
 
+def _remade(path, V, F, k):
+    """The mesh made again as a segmentation is (``data_gen/remade.py``: marching cubes of its signed distance) at a
+    voxel of ``1 / k`` of the least inscribed radius of VMTK's lines of it (their 10th percentile)."""
+    sys.path.insert(0, str(ROOT / "data_gen"))
+    from remade import remade
+
+    ref = _reference(path)
+    n = sum(f.endswith("_points") for f in ref.files)
+    voxel = min(float(np.percentile(ref[f"line{i}_radius"], 10)) for i in range(n)) / k
+    cells = float(np.prod((V.max(axis=0) - V.min(axis=0)) / voxel + 6))
+    if cells > REMADE_MAX_CELLS:
+        raise MemoryError(f"a grid of {cells:.3g} voxels (more than {REMADE_MAX_CELLS:.0e})")
+    return remade(V, F, voxel)
+
+
+#: ``--remade`` makes no grid larger than this (the XCAT tree at a fifth of its least radius: 5.3e8 voxels)
+REMADE_MAX_CELLS = 1.5e8
+
+
+#: the copies of ``--remade``: voxels of 1/k of the least inscribed radius
+REMADE = [("remade", 3.0), ("remade", 5.0)]
+
 #: the copies of ``--coarser``: (how, k)
 COARSER = [("remeshed", 0.7), ("remeshed", 1.4), ("remeshed", 2.0), ("decimated", 0.3), ("decimated", 0.15),
            ("noise", 0.1), ("noise", 0.3)]
@@ -97,7 +120,13 @@ def _row(path, vmtk=None, variant=None):
     V, F = vesselgp.read_mesh(path)[:2]
     V = V * TO_MM.get(path.name, 1.0)
     name = path.name
-    if variant is not None:
+    if variant is not None and variant[0] == "remade":
+        name = f"{path.name} remade at 1/{variant[1]:g} of its least radius"
+        try:
+            V, F = _remade(path, V, F, variant[1])
+        except MemoryError as e:
+            return [name] + ["-"] * 10 + [f"not made: {e}"]
+    elif variant is not None:
         V, F = _coarser(V, F, *variant)
         name = f"{path.name} {variant[0]} {variant[1]:g}"
     t = time.perf_counter()
@@ -141,6 +170,8 @@ def main():
     ap.add_argument("--vmtk", help="the Python of ../shared/peers/vmtk's environment, to time VMTK beside")
     ap.add_argument("--coarser", action="store_true",
                     help="instead, copies of each mesh remeshed, decimated and noisier (VMTK's lines of the original)")
+    ap.add_argument("--remade", action="store_true",
+                    help="instead, each mesh made again by marching cubes at a third and a fifth of its least radius")
     args = ap.parse_args()
     files = sorted(p for p in Path(args.data).iterdir() if p.suffix in (".stl", ".vtp", ".ply", ".obj"))
     head = ["mesh", "ends", "fit", "inside / clear (%)", "VMTK line to path (r): mean / worst",
@@ -149,8 +180,9 @@ def main():
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for f in files:
-        for variant in COARSER if args.coarser else [None]:
-            print("| " + " | ".join(_row(f, None if args.coarser else args.vmtk, variant)) + " |", flush=True)
+        copies = COARSER if args.coarser else REMADE if args.remade else [None]
+        for variant in copies:
+            print("| " + " | ".join(_row(f, None if variant else args.vmtk, variant)) + " |", flush=True)
 
 
 if __name__ == "__main__":

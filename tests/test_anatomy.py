@@ -105,9 +105,8 @@ def test_a_flat_patch_no_axis_reaches_is_taken_for_the_missed_vessels_cap(arches
     inside_voronoi = cl._inside_voronoi
     monkeypatch.setattr(cl, "_inside_voronoi", lambda *a: tessellated.append(1) or inside_voronoi(*a))
     drawn = []
-    lines = cl.centerlines
-    monkeypatch.setattr(vesselgp.tree, "centerlines", lambda *a, **k: drawn.append(1) or lines(*a, **k))
-    monkeypatch.setattr(vesselgp.branches, "centerlines", lambda *a, **k: drawn.append(1) or lines(*a, **k))
+    draw = cl._drawn  # the lines drawn on the diagram (asked again for the same ends, they are not drawn again)
+    monkeypatch.setattr(cl, "_drawn", lambda *a, **k: drawn.append(1) or draw(*a, **k))
     with caplog.at_level(logging.INFO, logger="vesselgp"):
         assert len(pm.ends) == 4 and len(pm.flat_patches) == 1
         tree = vesselgp.fit_vessel_tree(pm)

@@ -41,6 +41,22 @@ from .curves import chord_length, polyline_feet, resample_arclength
 __all__ = ["medial_zones"]
 
 
+def _densified(line, radius, step):
+    """The polyline ``line`` (k, 3) with points added on its segments longer than ``step`` (equally spaced,
+    ``step`` apart at most), and the radius interpolated there: the same curve, whose points a zone can mark
+    however far apart the given ones are. A tree branch's line starts at its junction, up to 2.5 radii before its
+    next point: an axis departing only there marked no point, and the fit failed on an empty zone (the 4D-flow
+    arch made again by marching cubes at a third of its least radius)."""
+    seg = np.linalg.norm(np.diff(line, axis=0), axis=1)
+    extra = np.maximum(np.ceil(seg / step).astype(np.int64) - 1, 0)
+    if not extra.any():
+        return line, radius
+    t = np.concatenate([i + np.arange(e + 1) / (e + 1) for i, e in enumerate(extra)] + [[len(line) - 1]])
+    i = np.minimum(np.floor(t).astype(np.int64), len(line) - 2)
+    f = (t - i)[:, None]
+    return (1.0 - f) * line[i] + f * line[i + 1], (1.0 - f[:, 0]) * radius[i] + f[:, 0] * radius[i + 1]
+
+
 def medial_zones(nodes, line, radius, rscale, *, through=(False, False), fit_radius=None, skip_start=0.0,
                  sharp_s=None):
     """A branch's fitted axis with the stretches far from its centre line replaced by the line.
@@ -95,8 +111,8 @@ def medial_zones(nodes, line, radius, rscale, *, through=(False, False), fit_rad
     >>> float(abs(out[:, 1]).max()) < 0.5, zones.round(1).tolist()
     (True, [[8.0, 12.0]])
     """
-    line = np.asarray(line, np.float64)
-    R = np.asarray(radius, np.float64)
+    line, R = _densified(np.asarray(line, np.float64), np.asarray(radius, np.float64),
+                         tol.TREE_MEDIAL_SAMPLING * rscale)
     aL = chord_length(line)
     n = int(np.clip(chord_length(nodes)[-1] / (tol.TREE_MEDIAL_SAMPLING * rscale), len(nodes),
                     tol.TREE_MEDIAL_MAX_SAMPLES))

@@ -856,3 +856,18 @@ WALL_CIRCLE_RIDGE = 1e-3
 #: most 0.003, the other real meshes at most 0.15 within their uncertainty.
 CHECK_CENTRE_WARN = 0.1
 CHECK_CENTRE_SIGMAS = 4.0
+
+#: Ends missed by vesselgp.vessel_ends, found from the lumen (vesselgp.missed_ends): an inside Voronoi vertex no
+#: centre line's sphere reaches, whose sphere is at least MISSED_CORE of the nearest line's inscribed radius (a
+#: vessel's, not a medial spike's at a ragged wall) and that lies at least MISSED_REACH of its own radii past the
+#: reached ones along the diagram, is in a vessel that no line enters ...
+MISSED_CORE = 0.3
+MISSED_REACH = 3.0
+#: ... whose end is looked for on the surface within this many of that vertex's radii on along the way there.
+MISSED_SEARCH = 4.0
+#: Such an end is a vessel's if its tube goes on behind it for ENDS_SAC_TUBE_RADII of its radii, as a rounded tip's
+#: must, or for at least MISSED_MIN_TUBE of them and then stops without narrowing (its rings meet a junction: a
+#: short, wide vessel such as an ascending aorta capped near its arch); a dome whose rings narrow is a sac's.
+MISSED_MIN_TUBE = 0.5
+#: A tree fit looks for that many missed ends at most, one at a time (its centre lines drawn again each time).
+MISSED_MAX_ENDS = 8

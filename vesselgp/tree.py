@@ -58,6 +58,7 @@ from .fit import (check_cylinder_bend, cylinder_from_axis, cylinder_sharp_bends,
 from .inside import check_axis_inside
 from ._per_vertex import on_rows, rows_of
 from .medial_zones import medial_zones
+from .missed_ends import missed_ends
 from .prepared import prepared_mesh
 from .rotations import minimal_rotation
 
@@ -501,7 +502,10 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     if len(pm.ends) < 2:
         raise EndsError(f"a vessel tree needs at least two ends, the mesh has {len(pm.ends)} "
                         "(see vesselgp.vessel_ends)")
+    given = pm._given_ends is not None  # ends the caller gave are the ends
     pm = _with_missed_caps(pm, root)
+    if not given:
+        pm = _with_missed_vessels(pm, root)
     ends = pm.ends
     root = root_end(ends, root)
     if len(ends) == 2:
@@ -631,6 +635,23 @@ def _with_missed_caps(pm, root):
         log.warning("no centre line reaches the flat patch %s, which vesselgp.vessel_ends did not take for a cap; "
                     "it is the cap of a vessel whose end was missed: end %d", p.describe(), len(pm.ends) + k)
     return pm.with_ends(tuple(pm.ends) + tuple(missed))
+
+
+def _with_missed_vessels(pm, root):
+    """``pm`` with the ends of the vessels no centre line enters appended, one at a time (:func:`missed_ends`,
+    logged at WARNING). A mesh whose ends are all open loops is not searched (a vessel of it that ends closed
+    among vessels cut open is not looked for: the lumen's diagram would be drawn for every single open tube)."""
+    if all(e.kind == "open" for e in pm.ends):
+        return pm
+    for _ in range(tol.MISSED_MAX_ENDS):
+        lines = centerlines(pm.V, pm.checked.faces, pm.ends, root_end(pm.ends, root), voronoi=pm.voronoi)
+        new = missed_ends(pm, lines)
+        if not new:
+            break
+        log.warning("the lumen runs on past every centre line into a vessel with no end found (vesselgp.vessel_ends "
+                    "did not take its end for one): %s, end %d", new[0].describe(), len(pm.ends))
+        pm = pm.with_ends(tuple(pm.ends) + tuple(new))
+    return pm
 
 
 def _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial):

@@ -528,7 +528,7 @@ def _band_variance(h):
     return (tol.ENDS_TIP_BAND_EDGES * h) ** 2 / 12.0
 
 
-def own_tube(V, G, tip, h):
+def own_tube(V, G, tip, h, why=False):
     """How far a tip's dome goes on as a tube of its own, in its radii past the dome's equator.
 
     The geodesic rings from the tip's vertex are followed past the equator (``pi R / 2``) while each
@@ -550,12 +550,23 @@ def own_tube(V, G, tip, h):
         A record of :func:`find_tips` (``tip``, ``radius``).
     h : float
         Median edge length.
+    why : bool
+        Also say whether the tube stopped where it narrowed (a sac's neck), rather than where its rings
+        stopped being round or moving on (a junction behind a short vessel's end; :mod:`vesselgp.missed_ends`).
 
     Returns
     -------
     float
         The tube's length past the equator, in radii.
+    narrowed : bool
+        Only with ``why``: whether the first ring past the tube is narrower than its floor.
     """
+    length, narrowed = _own_tube(V, G, tip, h)
+    return (length, narrowed) if why else length
+
+
+def _own_tube(V, G, tip, h):
+    """:func:`own_tube`'s length and whether the tube stopped where it narrowed."""
     R = float(tip["radius"])
     dstar = 0.5 * np.pi * R
     L = dstar + (tol.ENDS_SAC_TUBE_RADII + 0.5) * R + 2 * h
@@ -563,20 +574,21 @@ def own_tube(V, G, tip, h):
     d, rho, C, n, eig = rg["d"], rg["rho"], rg["C"], rg["n"], rg["eig"]
     past = np.flatnonzero((n >= tol.ENDS_MIN_RING) & (d >= dstar))
     if not len(past):
-        return 0.0
+        return 0.0, False
     e = eig[past]
     ok = ((rho[past] >= (1.0 - tol.ENDS_SAC_TUBE_NARROWING) * R) & (e[:, 1] >= tol.ENDS_SAC_TUBE_ASPECT * e[:, 2])
           & (e[:, 0] <= tol.ENDS_TIP_RING_FLATNESS * e[:, 2] + _band_variance(h)))
     ok &= np.r_[True, np.einsum("ij,ij->i", np.diff(C[past], axis=0), C[past][1:] - C[past][0]) > 0]  # moving on
     if ok.all():
-        return float((d[past[-1]] + h - dstar) / R)
+        return float((d[past[-1]] + h - dstar) / R), False
     stop = int(np.argmin(ok))
-    if stop == 0:
-        return 0.0
-    a, b = past[stop - 1], past[stop]  # the tube's last ring and the first that is not
     floor = (1.0 - tol.ENDS_SAC_TUBE_NARROWING) * R
+    narrowed = bool(rho[past[stop]] < floor)
+    if stop == 0:
+        return 0.0, narrowed
+    a, b = past[stop - 1], past[stop]  # the tube's last ring and the first that is not
     t = (rho[a] - floor) / (rho[a] - rho[b]) if rho[b] < floor < rho[a] else 0.5  # where it narrows past the floor
-    return float(max(d[a] + t * (d[b] - d[a]) - dstar, 0.0) / R)
+    return float(max(d[a] + t * (d[b] - d[a]) - dstar, 0.0) / R), narrowed
 
 
 def extreme_tips(V, G, h, sources, used):

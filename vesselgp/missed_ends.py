@@ -1,0 +1,165 @@
+"""Ends that :func:`vesselgp.vessel_ends` missed, found from the lumen itself (issue #47's segmentation-like copies).
+
+An end is missed where its shape fits none of the end tests: a cap that is neither flat nor rounded (a fan
+or a clipping plane smoothed over, its rim rounded off by marching cubes or remeshing), a tip that is no
+hemisphere. The fit then has no path into that vessel. The cover check does not see it when the path beside it
+takes the vessel's wall for a bulge of its own (a capped arch whose ascending aorta's cap was missed was reported
+as an aneurysm of 2.7 times the arch's radius, every check passing).
+
+The lumen shows it all the same. The inside Voronoi vertices of the surface (:mod:`vesselgp.centerlines`)
+fill every vessel; those that no centre line's inscribed sphere reaches (scaled by ``1 +
+tolerances.CHECK_COVER_TOLERANCE``, as the cover check scales them) lie in sacs, in sections that are not
+round, at the tips of the medial spikes of a ragged wall, or in a vessel that no line enters. Only the last goes
+on: a Voronoi vertex whose sphere is a vessel's (its radius at least ``tolerances.MISSED_CORE`` of the nearest
+line's) at least ``tolerances.MISSED_REACH`` of its own radii past the reached ones, along the diagram, is
+where a vessel runs on with no end. From the farthest such vertex, along the way the diagram came, the surface
+is met at the vessel's end: that end is read from the surface there as a rounded tip is
+(:func:`vesselgp.mesh._ends_tips._crossing_end`: its rings widen as a dome's, or a disk's, until they are the
+tube's). It is an end if the tube goes on behind it for ``tolerances.ENDS_SAC_TUBE_RADII`` of its radii
+(:func:`vesselgp.mesh._ends_tips.own_tube`), as every rounded tip must; otherwise it is a sac's dome, and left
+to the fit (its path passes it, its bulge is measured).
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components, dijkstra
+from scipy.spatial import cKDTree
+
+from . import tolerances as tol
+from ._arrays import within_balls
+from .mesh._ends_format import bbox_diagonal
+from .mesh._ends_tips import _crossing_end, _tip, own_tube
+from .mesh.ends import _make_end, _Nearby, _ordered_ring
+
+log = logging.getLogger(__name__)
+
+__all__ = ["missed_ends"]
+
+
+def missed_ends(pm, lines):
+    """The end of a vessel that no centre line enters, or none (see the module notes).
+
+    Parameters
+    ----------
+    pm : PreparedMesh
+        The mesh, its ends and its inside Voronoi diagram (:attr:`vesselgp.PreparedMesh.voronoi`).
+    lines : Centerlines
+        Its centre lines from the root to every end found (:func:`vesselgp.centerlines.centerlines`).
+
+    Returns
+    -------
+    list of VesselEnd
+        At most one: the rounded end (kind ``"rounded"``) of the vessel that runs on farthest past the
+        lines, if its tube goes on behind it; empty when every vessel is entered (or what runs on is a sac).
+
+    Examples
+    --------
+    A Y whose third vessel's end is left out: that end is found again.
+
+    >>> from vesselgp.synthetic_tree import synthetic_tree
+    >>> from vesselgp.prepared import PreparedMesh
+    >>> from vesselgp.centerlines import centerlines
+    >>> t = synthetic_tree(levels=1, voxel=0.6)
+    >>> full = PreparedMesh(t.V, t.F)
+    >>> pm = full.with_ends(full.ends[:2])
+    >>> found = missed_ends(pm, centerlines(pm.V, pm.checked.faces, pm.ends, 0, voronoi=pm.voronoi))
+    >>> len(found), bool(np.linalg.norm(found[0].center - full.ends[2].center) < full.ends[2].radius)
+    (1, True)
+    """
+    cc, R, inside, G = pm.voronoi.graph(False)
+    ids = np.flatnonzero(inside)
+    C, Rl = np.vstack(lines.points), np.concatenate(lines.radius)
+    reached = np.zeros(len(cc), bool)
+    reached[ids] = within_balls(cc[ids], C, (1.0 + tol.CHECK_COVER_TOLERANCE) * Rl)
+    if reached[ids].all():
+        return []
+    dE, pred = _past_the_lines(G, cc, R, inside, reached)
+    un = ids[~reached[ids] & np.isfinite(dE[ids])]
+    rn = Rl[cKDTree(C).query(cc[un])[1]]
+    cand = un[(R[un] >= tol.MISSED_CORE * rn) & (dE[un] >= tol.MISSED_REACH * R[un])]
+    if not len(cand):
+        return []
+    # each run of unreached vertices is judged once, by its farthest candidate
+    sub = np.zeros(len(cc), bool)
+    sub[un] = True
+    _, comp = connected_components(G[sub][:, sub], directed=False)
+    where = np.full(len(cc), -1)
+    where[np.flatnonzero(sub)] = comp
+    V, topo = pm.V, pm.topology
+    w = topo.edge_lengths(V)
+    h, graph = float(np.median(w)), topo.edge_matrix(w)
+    for c in np.unique(where[cand]):
+        mine = cand[where[cand] == c]
+        k = int(mine[np.argmax(dE[mine])])
+        end = _end_beyond(pm, cc, R, pred, k, graph, h, float(dE[k] + R[k]))
+        if end is not None:
+            return [end]
+    return []
+
+
+def _past_the_lines(G, cc, R, inside, reached):
+    """Each inside Voronoi vertex's distance along the diagram (Euclidean, its edges' lengths) from the nearest
+    reached one, and its predecessor on that way (-9999 at the reached ones and where none leads)."""
+    Gc = G.tocoo()
+    m = inside[Gc.row] & inside[Gc.col]
+    r, c = Gc.row[m], Gc.col[m]
+    # (co-spherical tetrahedra share a circumcentre: their edge still connects, as in the centre lines' graph)
+    d = np.maximum(np.linalg.norm(cc[r] - cc[c], axis=1), tol.MEDIAL_MIN_EDGE_COST * np.minimum(R[r], R[c]))
+    GE = sp.csr_matrix((d, (r, c)), shape=G.shape)
+    dist, pred, _ = dijkstra(GE, directed=True, indices=np.flatnonzero(reached), min_only=True,
+                             return_predecessors=True)
+    return dist, pred
+
+
+def _end_beyond(pm, cc, R, pred, k, graph, h, dE_k):
+    """The rounded end where the way to Voronoi vertex ``k`` meets the surface past it, or None (no surface met,
+    no end read there, or a sac's dome: logged)."""
+    # the way's direction over the last radius
+    b, walked = k, 0.0
+    while walked < R[k] and pred[b] >= 0:
+        walked += float(np.linalg.norm(cc[pred[b]] - cc[b]))
+        b = int(pred[b])
+    u = cc[k] - cc[b]
+    if not np.linalg.norm(u) > 0:
+        return None
+    u = u / np.linalg.norm(u)
+    t = np.arange(1, int(np.ceil(tol.MISSED_SEARCH * R[k] / (0.5 * h))) + 1) * (0.5 * h)
+    Q = cc[k] + t[:, None] * u
+    out = np.flatnonzero(np.abs(pm.winding.winding(Q)) < 0.5)
+    if not len(out):
+        return None
+    V = pm.V
+    used = np.flatnonzero(pm.topology.referenced)
+    tip = int(used[cKDTree(V[used]).query(Q[out[0]])[1]])
+    rec = _read_end(pm, graph, tip, h, dE_k)
+    where = f"at {np.round(Q[out[0]], 3).tolist()}"
+    if rec is None:
+        log.info("the lumen runs on %.3g past the centre lines to the surface %s, where no end is read", R[k], where)
+        return None
+    tube, narrowed = own_tube(V, graph, rec, h, why=True)
+    if tube < tol.ENDS_SAC_TUBE_RADII and (narrowed or tube < tol.MISSED_MIN_TUBE):
+        log.info("the lumen runs on past the centre lines to a dome of radius %.4g %s whose tube goes on for %.2g "
+                 "radii only%s: a sac, not a vessel end", rec["radius"], where, tube,
+                 " and narrows" if narrowed else "")
+        return None
+    scale = bbox_diagonal(V[used])
+    end = _make_end(_Nearby(V), "rounded", _ordered_ring(V, rec), rec["region"], rec["center"], rec["direction"],
+                    scale)
+    return replace(end, radius=float(rec["radius"]))
+
+
+def _read_end(pm, graph, tip, h, reach):
+    """The end read from the surface about vertex ``tip``: a rounded tip's test first (:func:`_tip`, recentred on
+    its dome's pole), else the rings' crossing from a dome or a disk into the tube (:func:`_crossing_end`),
+    started again from where the axis of its rings meets the surface."""
+    from .mesh.ends import _face_normals
+    V, F = pm.V, pm.checked.faces
+    N, A = _face_normals(V, F)
+    rec = _tip(V, (F, N, A), graph, tip, reach, h)
+    if rec is not None and rec.get("tube", True):
+        return rec
+    return _crossing_end(V, graph, tip, h)
