@@ -29,7 +29,7 @@ def remade(V, F, voxel):
     ----------
     V : (n, 3) float64
     F : (m, 3) int64
-        A surface, open or closed, coherently oriented.
+        A surface, open or closed (its faces oriented coherently first, as vesselgp does).
     voxel : float
         The grid's spacing.
 
@@ -41,10 +41,10 @@ def remade(V, F, voxel):
     """
     from skimage.measure import marching_cubes
 
-    from vesselgp.mesh import mesh_topology
     from vesselgp.mesh._geometry import closed_by_fans
+    from vesselgp.mesh.orient import orient_faces
 
-    topo = mesh_topology(F, len(V))
+    F, topo = orient_faces(V, np.asarray(F, np.int64))  # the winding number needs one orientation throughout
     Vc, Fc = closed_by_fans(V, F, topo.boundary_loops)
     lo, hi = Vc.min(axis=0) - 3 * voxel, Vc.max(axis=0) + 3 * voxel
     n = np.ceil((hi - lo) / voxel).astype(int) + 1

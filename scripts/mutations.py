@@ -32,6 +32,43 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    # --- issue #47 (2026-12-07): ends found from the lumen (vesselgp.missed_ends), medial zones densified
+    "missed_ends_never_added": (
+        "vesselgp/tree.py",
+        "        new = missed_ends(pm, lines)",
+        "        new = []",
+        ["tests/test_missed_ends.py"],
+    ),
+    "missed_ends_reach_ignored": (
+        "vesselgp/missed_ends.py",
+        "    cand = un[(R[un] >= tol.MISSED_CORE * rn) & (dE[un] >= tol.MISSED_REACH * R[un])]",
+        "    cand = un[(R[un] >= tol.MISSED_CORE * rn)]",
+        ["tests/test_missed_ends.py::test_the_lumen_must_run_on_as_far_as_its_reach"],
+    ),
+    "missed_ends_narrowing_not_a_sac": (
+        "vesselgp/mesh/_ends_tips.py",
+        "    narrowed = bool(rho[past[stop]] < floor)",
+        "    narrowed = False",
+        ["tests/test_missed_ends.py::test_a_tube_stops_narrowing_at_a_sacs_neck_and_not_at_a_junction"],
+    ),
+    "missed_cap_need_not_span_its_lumen": (
+        "vesselgp/tree.py",
+        "    if cap.radius >= tol.MISSED_CAP_SPAN * behind:",
+        "    if True:",
+        ["tests/test_missed_ends.py::test_the_arch_made_at_a_fifth_of_its_least_radius_has_its_five_ends"],
+    ),
+    "missed_end_read_from_the_ray_hit": (
+        "vesselgp/missed_ends.py",
+        "    return int(near[int(np.argmax(far))])",
+        "    return int(used[np.argmin(np.linalg.norm(V[used] - hit, axis=1))])",
+        ["tests/test_missed_ends.py::test_the_arch_made_at_a_fifth_of_its_least_radius_has_its_five_ends"],
+    ),
+    "medial_zone_line_not_densified": (
+        "vesselgp/medial_zones.py",
+        "    if not extra.any():\n        return line, radius",
+        "    if True:\n        return line, radius",
+        ["tests/test_missed_ends.py"],
+    ),
     "sac_neighbour_at_the_neck": (
         "vesselgp/bulges.py",
         "    return float(np.median(d[near])) if near.any() else fitted",

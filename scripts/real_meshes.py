@@ -100,7 +100,7 @@ def _remade(path, V, F, k):
     voxel = min(float(np.percentile(ref[f"line{i}_radius"], 10)) for i in range(n)) / k
     cells = float(np.prod((V.max(axis=0) - V.min(axis=0)) / voxel + 6))
     if cells > REMADE_MAX_CELLS:
-        raise MemoryError(f"a grid of {cells:.3g} voxels (more than {REMADE_MAX_CELLS:.0e})")
+        raise MemoryError(f"a grid of {cells:.2g} voxels (more than {REMADE_MAX_CELLS:.2g})")
     return remade(V, F, voxel)
 
 

@@ -13,11 +13,14 @@ round, at the tips of the medial spikes of a ragged wall, or in a vessel that no
 on: a Voronoi vertex whose sphere is a vessel's (its radius at least ``tolerances.MISSED_CORE`` of the nearest
 line's) at least ``tolerances.MISSED_REACH`` of its own radii past the reached ones, along the diagram, is
 where a vessel runs on with no end. From the farthest such vertex, along the way the diagram came, the surface
-is met at the vessel's end: that end is read from the surface there as a rounded tip is
-(:func:`vesselgp.mesh._ends_tips._crossing_end`: its rings widen as a dome's, or a disk's, until they are the
-tube's). It is an end if the tube goes on behind it for ``tolerances.ENDS_SAC_TUBE_RADII`` of its radii
-(:func:`vesselgp.mesh._ends_tips.own_tube`), as every rounded tip must; otherwise it is a sac's dome, and left
-to the fit (its path passes it, its bulge is measured).
+is met near the vessel's end; there, the vertex farthest along the surface from the wall the lines reach (a flat
+cap's centre, a dome's pole) is where the end is read, as a rounded tip is (:func:`vesselgp.mesh._ends_tips._tip`
+recentred on its pole, else :func:`vesselgp.mesh._ends_tips._crossing_end`: its rings widen as a dome's, or a
+disk's, until they are the tube's), and read again from where that end's own axis meets the surface. It is an
+end if the tube goes on behind it for ``tolerances.ENDS_SAC_TUBE_RADII`` of its radii
+(:func:`vesselgp.mesh._ends_tips.own_tube`), as every rounded tip must, or for ``tolerances.MISSED_MIN_TUBE`` of
+them and then meets a junction without narrowing (a short, wide vessel); a dome whose rings close in on a neck is
+a sac's, left to the fit (its path passes it, its bulge is measured).
 """
 from __future__ import annotations
 
@@ -90,12 +93,13 @@ def missed_ends(pm, lines):
     where = np.full(len(cc), -1)
     where[np.flatnonzero(sub)] = comp
     V, topo = pm.V, pm.topology
+    balls = (C, (1.0 + tol.CHECK_COVER_TOLERANCE) * Rl)
     w = topo.edge_lengths(V)
     h, graph = float(np.median(w)), topo.edge_matrix(w)
     for c in np.unique(where[cand]):
         mine = cand[where[cand] == c]
         k = int(mine[np.argmax(dE[mine])])
-        end = _end_beyond(pm, cc, R, pred, k, graph, h, float(dE[k] + R[k]))
+        end = _end_beyond(pm, cc, R, pred, k, graph, h, float(dE[k] + R[k]), balls)
         if end is not None:
             return [end]
     return []
@@ -115,7 +119,7 @@ def _past_the_lines(G, cc, R, inside, reached):
     return dist, pred
 
 
-def _end_beyond(pm, cc, R, pred, k, graph, h, dE_k):
+def _end_beyond(pm, cc, R, pred, k, graph, h, dE_k, lines_balls):
     """The rounded end where the way to Voronoi vertex ``k`` meets the surface past it, or None (no surface met,
     no end read there, or a sac's dome: logged)."""
     # the way's direction over the last radius
@@ -126,19 +130,24 @@ def _end_beyond(pm, cc, R, pred, k, graph, h, dE_k):
     u = cc[k] - cc[b]
     if not np.linalg.norm(u) > 0:
         return None
-    u = u / np.linalg.norm(u)
-    t = np.arange(1, int(np.ceil(tol.MISSED_SEARCH * R[k] / (0.5 * h))) + 1) * (0.5 * h)
-    Q = cc[k] + t[:, None] * u
-    out = np.flatnonzero(np.abs(pm.winding.winding(Q)) < 0.5)
-    if not len(out):
-        return None
     V = pm.V
     used = np.flatnonzero(pm.topology.referenced)
-    tip = int(used[cKDTree(V[used]).query(Q[out[0]])[1]])
-    rec = _read_end(pm, graph, tip, h, dE_k)
-    where = f"at {np.round(Q[out[0]], 3).tolist()}"
+    hit = _surface_ahead(pm, cc[k], u / np.linalg.norm(u), tol.MISSED_SEARCH * R[k], h)
+    rec = None
+    for _ in range(tol.MISSED_RECENTRE + 1):  # read, then again from where the read end's own axis meets the surface
+        if hit is None:
+            break
+        tip = _farthest_near(pm, graph, used, hit, tol.MISSED_SEARCH * R[k], lines_balls)
+        if rec is not None and tip == rec["tip"]:
+            break
+        where = f"at {np.round(hit, 3).tolist()}"
+        rec = _read_end(pm, graph, tip, h, dE_k) or rec
+        if rec is None:
+            break
+        hit = _surface_ahead(pm, np.asarray(rec["center"], np.float64), np.asarray(rec["direction"], np.float64),
+                             tol.MISSED_SEARCH * float(rec["radius"]), h)
     if rec is None:
-        log.info("the lumen runs on %.3g past the centre lines to the surface %s, where no end is read", R[k], where)
+        log.info("the lumen runs on %.3g past the centre lines to the surface, where no end is read", R[k])
         return None
     tube, narrowed = own_tube(V, graph, rec, h, why=True)
     if tube < tol.ENDS_SAC_TUBE_RADII and (narrowed or tube < tol.MISSED_MIN_TUBE):
@@ -150,6 +159,28 @@ def _end_beyond(pm, cc, R, pred, k, graph, h, dE_k):
     end = _make_end(_Nearby(V), "rounded", _ordered_ring(V, rec), rec["region"], rec["center"], rec["direction"],
                     scale)
     return replace(end, radius=float(rec["radius"]))
+
+
+def _farthest_near(pm, graph, used, hit, reach, balls):
+    """The surface vertex within ``reach`` of the point ``hit`` farthest along the surface from the wall the lines'
+    spheres ``balls`` reach: a flat cap's centre (the rim is nearer), a dome's pole."""
+    V = pm.V
+    near = used[np.linalg.norm(V[used] - hit, axis=1) <= reach]
+    wall = used[within_balls(V[used], *balls)]
+    if not len(near) or not len(wall):
+        return int(used[np.argmin(np.linalg.norm(V[used] - hit, axis=1))])
+    g = dijkstra(graph, directed=False, indices=wall, min_only=True)
+    far = np.where(np.isfinite(g[near]), g[near], -1.0)
+    return int(near[int(np.argmax(far))])
+
+
+def _surface_ahead(pm, p, u, reach, h):
+    """The first point outside the surface from ``p`` along the unit ``u`` in steps of half an edge ``h``, within
+    ``reach``; None when there is none."""
+    t = np.arange(1, int(np.ceil(reach / (0.5 * h))) + 1) * (0.5 * h)
+    Q = p + t[:, None] * u
+    out = np.flatnonzero(np.abs(pm.winding.winding(Q)) < 0.5)
+    return Q[out[0]] if len(out) else None
 
 
 def _read_end(pm, graph, tip, h, reach):

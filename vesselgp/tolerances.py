@@ -865,9 +865,15 @@ MISSED_CORE = 0.3
 MISSED_REACH = 3.0
 #: ... whose end is looked for on the surface within this many of that vertex's radii on along the way there.
 MISSED_SEARCH = 4.0
+#: ... and read again, at most this many times, from where the end read first has its own axis meet the surface
+#: (a ray that met a flat cap near its rim read a radius 1.5 times the vessel's and no tube behind it).
+MISSED_RECENTRE = 2
 #: Such an end is a vessel's if its tube goes on behind it for ENDS_SAC_TUBE_RADII of its radii, as a rounded tip's
 #: must, or for at least MISSED_MIN_TUBE of them and then stops without narrowing (its rings meet a junction: a
 #: short, wide vessel such as an ascending aorta capped near its arch); a dome whose rings narrow is a sac's.
 MISSED_MIN_TUBE = 0.5
+#: A flat patch no centre line reaches is taken for a missed vessel's cap only if its radius is at least this much of
+#: the largest inscribed sphere reaching its centre (a whole cross-section, not a terrace of a wider cap).
+MISSED_CAP_SPAN = 0.5
 #: A tree fit looks for that many missed ends at most, one at a time (its centre lines drawn again each time).
 MISSED_MAX_ENDS = 8
