@@ -78,12 +78,15 @@ def missed_ends(pm, lines):
     C, Rl = np.vstack(lines.points), np.concatenate(lines.radius)
     reached = np.zeros(len(cc), bool)
     reached[ids] = within_balls(cc[ids], C, (1.0 + tol.CHECK_COVER_TOLERANCE) * Rl)
-    if reached[ids].all():
+    un = ids[~reached[ids]]
+    rn = Rl[cKDTree(C).query(cc[un])[1]]
+    core = R[un] >= tol.MISSED_CORE * rn
+    if not core.any():  # (every vessel entered: nothing unreached but the spikes of a ragged or flattened wall)
         return []
     dE, pred = _past_the_lines(G, cc, R, inside, reached)
-    un = ids[~reached[ids] & np.isfinite(dE[ids])]
-    rn = Rl[cKDTree(C).query(cc[un])[1]]
-    cand = un[(R[un] >= tol.MISSED_CORE * rn) & (dE[un] >= tol.MISSED_REACH * R[un])]
+    fin = np.isfinite(dE[un])
+    un, core = un[fin], core[fin]
+    cand = un[core & (dE[un] >= tol.MISSED_REACH * R[un])]
     if not len(cand):
         return []
     # each run of unreached vertices is judged once, by its farthest candidate
@@ -109,13 +112,18 @@ def _past_the_lines(G, cc, R, inside, reached):
     """Each inside Voronoi vertex's distance along the diagram (Euclidean, its edges' lengths) from the nearest
     reached one, and its predecessor on that way (-9999 at the reached ones and where none leads)."""
     Gc = G.tocoo()
-    m = inside[Gc.row] & inside[Gc.col]
+    # the way from the nearest reached vertex runs through unreached ones only after its last reached one: the
+    # unreached vertices and the reached ones beside them are enough (the whole diagram: 0.6 s of a 48k-vertex tree)
+    un = inside & ~reached
+    m = inside[Gc.row] & inside[Gc.col] & (un[Gc.row] | un[Gc.col])
     r, c = Gc.row[m], Gc.col[m]
     # (co-spherical tetrahedra share a circumcentre: their edge still connects, as in the centre lines' graph)
     d = np.maximum(np.linalg.norm(cc[r] - cc[c], axis=1), tol.MEDIAL_MIN_EDGE_COST * np.minimum(R[r], R[c]))
     GE = sp.csr_matrix((d, (r, c)), shape=G.shape)
-    dist, pred, _ = dijkstra(GE, directed=True, indices=np.flatnonzero(reached), min_only=True,
-                             return_predecessors=True)
+    border = np.unique(np.concatenate([r[reached[r]], c[reached[c]]]))
+    if not len(border):
+        return np.full(len(cc), np.inf), np.full(len(cc), -9999)
+    dist, pred, _ = dijkstra(GE, directed=True, indices=border, min_only=True, return_predecessors=True)
     return dist, pred
 
 
