@@ -41,8 +41,8 @@ MUTATIONS = {
     ),
     "missed_ends_reach_ignored": (
         "vesselgp/missed_ends.py",
-        "    cand = un[(R[un] >= tol.MISSED_CORE * rn) & (dE[un] >= tol.MISSED_REACH * R[un])]",
-        "    cand = un[(R[un] >= tol.MISSED_CORE * rn)]",
+        "    cand = un[core & (dE[un] >= tol.MISSED_REACH * R[un])]",
+        "    cand = un[core]",
         ["tests/test_missed_ends.py::test_the_lumen_must_run_on_as_far_as_its_reach"],
     ),
     "missed_ends_narrowing_not_a_sac": (

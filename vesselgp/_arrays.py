@@ -107,7 +107,9 @@ def spread_subset(n, most):
 
 def within_balls(P, C, R):
     """Whether each point of ``P`` (p, 3) lies inside one of the balls of centres ``C`` (c, 3) and radii ``R`` (c,):
-    the pairs closer than the largest radius, from two k-d trees. (p,) bool.
+    (p,) bool. A point inside its nearest centre's ball is decided by that; the others are tested against every ball
+    whose centre is nearer than the largest radius (two k-d trees). Many lines' balls overlap down a tree's trunk:
+    all pairs there were 10^9 for the 64-tip tree's inside Voronoi vertices, this prefilter leaves few.
 
     Examples
     --------
@@ -119,6 +121,11 @@ def within_balls(P, C, R):
     out = np.zeros(len(P), bool)
     if not len(P) or not len(C):
         return out
-    near = cKDTree(C).sparse_distance_matrix(cKDTree(P), float(np.max(R)), output_type="ndarray")
-    out[near["j"][near["v"] < R[near["i"]]]] = True
+    tree = cKDTree(C)
+    d, i = tree.query(P)
+    out = d < R[i]  # inside the nearest centre's ball: decided; the rest against every ball that may hold it
+    rest = np.flatnonzero(~out)
+    if len(rest):
+        near = tree.sparse_distance_matrix(cKDTree(P[rest]), float(np.max(R)), output_type="ndarray")
+        out[rest[near["j"][near["v"] < R[near["i"]]]]] = True
     return out
