@@ -36,7 +36,7 @@ from . import tolerances as tol
 from ._arrays import within_balls
 from .mesh._ends_format import bbox_diagonal
 from .mesh._ends_tips import _crossing_end, _tip, own_tube
-from .mesh.ends import _make_end, _Nearby, _ordered_ring
+from .mesh.ends import _face_normals, _make_end, _Nearby, _ordered_ring
 
 log = logging.getLogger(__name__)
 
@@ -195,7 +195,6 @@ def _read_end(pm, graph, tip, h, reach):
     """The end read from the surface about vertex ``tip``: a rounded tip's test first (:func:`_tip`, recentred on
     its dome's pole), else the rings' crossing from a dome or a disk into the tube (:func:`_crossing_end`),
     started again from where the axis of its rings meets the surface."""
-    from .mesh.ends import _face_normals
     V, F = pm.V, pm.checked.faces
     N, A = _face_normals(V, F)
     rec = _tip(V, (F, N, A), graph, tip, reach, h)
