@@ -164,9 +164,21 @@ def _end_beyond(pm, cc, R, pred, k, graph, h, dE_k, lines_balls):
                  " and narrows" if narrowed else "")
         return None
     scale = bbox_diagonal(V[used])
-    end = _make_end(_Nearby(V), "rounded", _ordered_ring(V, rec), rec["region"], rec["center"], rec["direction"],
-                    scale)
+    end = _make_end(_Nearby(V), "rounded", _ordered_ring(V, rec), _beyond(V, graph, rec), rec["center"],
+                    rec["direction"], scale)
     return replace(end, radius=float(rec["radius"]))
+
+
+def _beyond(V, graph, rec):
+    """The end's region: the surface beyond its centre's plane, within ``tolerances.MISSED_REGION`` of its radii of
+    the tip along the surface: a dome's vertices, or a cap's and the stretch of wall between it and the centre
+    read ``0.6-0.8`` radii inside it (with the dome's half radius only, the rest of a flat cap was judged as wall,
+    and the axis named off its centre there)."""
+    R = float(rec["radius"])
+    g = dijkstra(graph, directed=False, indices=int(rec["tip"]), limit=tol.MISSED_REGION * R)
+    near = np.flatnonzero(np.isfinite(g))
+    ahead = (V[near] - np.asarray(rec["center"], np.float64)) @ np.asarray(rec["direction"], np.float64) >= 0.0
+    return np.union1d(near[ahead], np.asarray(rec["region"], np.int64))
 
 
 def _farthest_near(pm, graph, used, hit, reach, balls):

@@ -868,6 +868,9 @@ MISSED_SEARCH = 4.0
 #: ... and read again, at most this many times, from where the end read first has its own axis meet the surface
 #: (a ray that met a flat cap near its rim read a radius 1.5 times the vessel's and no tube behind it).
 MISSED_RECENTRE = 2
+#: ... and its region (the vertices that are no wall) is the surface beyond its centre's plane within this many of
+#: its radii of its tip along the surface (a flat cap of radius R lies within R of its centre, its rim within 2 R).
+MISSED_REGION = 2.5
 #: Such an end is a vessel's if its tube goes on behind it for ENDS_SAC_TUBE_RADII of its radii, as a rounded tip's
 #: must, or for at least MISSED_MIN_TUBE of them and then stops without narrowing (its rings meet a junction: a
 #: short, wide vessel such as an ascending aorta capped near its arch); a dome whose rings narrow is a sac's.

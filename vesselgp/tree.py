@@ -502,10 +502,7 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     if len(pm.ends) < 2:
         raise EndsError(f"a vessel tree needs at least two ends, the mesh has {len(pm.ends)} "
                         "(see vesselgp.vessel_ends)")
-    given = pm._given_ends is not None  # ends the caller gave are the ends
-    pm = _with_missed_caps(pm, root)
-    if not given:
-        pm = _with_missed_vessels(pm, root)
+    pm = with_missed_ends(pm, root)
     ends = pm.ends
     root = root_end(ends, root)
     if len(ends) == 2:
@@ -636,6 +633,31 @@ def _with_missed_caps(pm, root):
         log.warning("no centre line reaches the flat patch %s, which vesselgp.vessel_ends did not take for a cap; "
                     "it is the cap of a vessel whose end was missed: end %d", p.describe(), len(pm.ends) + k)
     return pm.with_ends(tuple(pm.ends) + tuple(missed))
+
+
+def with_missed_ends(pm, root=None):
+    """``pm`` with the ends :func:`vesselgp.vessel_ends` missed appended: the flat patches no centre line reaches
+    that span their lumen (:func:`_with_missed_caps`), then the vessels no centre line enters
+    (:func:`_with_missed_vessels`, :mod:`vesselgp.missed_ends`), each named in a WARNING. Ends the caller gave
+    (``PreparedMesh(V, F, ends)``) are the ends: only the flat patches (none then) are looked at.
+
+    :func:`fit_vessel_tree` calls it; so does ``vesselgp fit`` before it decides whether the mesh is one vessel or
+    a tree (a capped arch whose end tests found two of its five ends was fitted as one tube and refused).
+
+    Parameters
+    ----------
+    pm : PreparedMesh
+    root : int, optional
+        The root end (default the widest).
+
+    Returns
+    -------
+    PreparedMesh
+        ``pm`` itself when nothing was missed.
+    """
+    given = pm._given_ends is not None  # ends the caller gave are the ends
+    pm = _with_missed_caps(pm, root)
+    return pm if given else _with_missed_vessels(pm, root)
 
 
 def _spans_its_lumen(pm, cap):

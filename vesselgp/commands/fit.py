@@ -23,7 +23,7 @@ from ..html_report import ViewMesh, write_report_html
 from ..io import to_json, write_csv, write_json
 from ..network import centerline_network
 from ..prepared import PreparedMesh
-from ..tree import fit_vessel_tree
+from ..tree import fit_vessel_tree, with_missed_ends
 from ..viz import first_colors, render_mesh, torsion_colors
 from .output import _for_view, _write_centerlines, _write_shaded, read_mesh_in
 
@@ -89,6 +89,8 @@ def run_fit(mesh, out, *, ends=None, root=None, n_nodes=None, lam=None, axis_for
         raise OptionError("give the root end (root=) or the two ends of one path (ends=), not both")
     V, F, uinfo = read_mesh_in(mesh, units, scale)
     pm = PreparedMesh(V, F)  # checked once: the ends, the fit, the centre lines' inscribed radius
+    if ends is None and len(pm.ends) >= 2:  # ends the end tests missed count (vesselgp.tree.with_missed_ends)
+        pm = with_missed_ends(pm, root if len(pm.ends) > 2 else None)
     if ends is None and len(pm.ends) > 2:
         return run_fit_tree(pm, mesh, out, uinfo, root=root, lam=lam, axis_format=axis_format, render=render)
     if root is not None:
