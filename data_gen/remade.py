@@ -5,7 +5,7 @@ distance to the surface (its open ends closed by fans, as vesselgp closes them; 
 winding number is above 1/2, libigl's) on a grid of that voxel and meshes its zero level with
 ``skimage.measure.marching_cubes``: the same lumen, its open ends now capped, every cap's rim rounded off by
 the voxels, the thin vessels a few voxels across. The copies of the real meshes at a third and a fifth of the
-least inscribed radius of VMTK's lines (``python data_gen/remade.py``, or ``scripts/real_meshes.py --coarser``)
+least inscribed radius of VMTK's lines (``python data_gen/remade.py``, or ``scripts/real_meshes.py --remade``)
 are where issue #47's run found a capped arch whose ascending aorta's end was missed (reported as a 2.7x bulge)
 and a crash on an empty medial zone.
 """

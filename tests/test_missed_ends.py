@@ -266,3 +266,56 @@ def test_the_command_line_fits_the_ends_it_finds_missed(tmp_path, caplog):
     assert len(found) == len(truth) == 5 and not d["bulges"]
     for e in truth:
         assert np.min(np.linalg.norm(found - e.center, axis=1)) < e.radius, e.describe()
+
+
+def _logged(caplog, pattern):
+    import re
+
+    return [float(m) for m in re.findall(pattern, caplog.text)]
+
+
+def test_a_flat_patch_is_a_cap_at_the_edge_of_its_span(caplog, monkeypatch):
+    """MISSED_CAP_SPAN at its edge, on the flared synthetic arch (its root's cap, 132 faces of radius 13.9, a flat
+    patch no centre line reaches): the span it logs when refused (the patch's radius over the largest sphere
+    reaching its centre, 1.03). With the limit just below it the patch is taken for the root's cap; just above it,
+    it is not, and the fit is refused where that vessel's wall is left without an axis (its lumen runs on too
+    short a way past the lines to be found from it), never answered with the ascending aorta as a bulge."""
+    from vesselgp.errors import NotTubularError
+    from vesselgp.synthetic_anatomy import capped_arch
+
+    V, F, truth, caps = capped_arch(sinus=1.5)
+    monkeypatch.setattr(tol, "MISSED_CAP_SPAN", 10.0)
+    with caplog.at_level(logging.INFO, logger="vesselgp.tree"), pytest.raises(NotTubularError, match="without an axis"):
+        vesselgp.fit_vessel_tree(V, F)
+    (span,) = _logged(caplog, r"no centre line reaches spans ([0-9.]+) of")
+    assert 0.5 < span < 1.5
+    monkeypatch.setattr(tol, "MISSED_CAP_SPAN", 0.99 * span)
+    tree = vesselgp.fit_vessel_tree(V, F)
+    e = tree.ends[tree.root]
+    assert e.kind == "cap" and np.linalg.norm(e.center - caps[0][0]) < 0.1 * caps[0][2] and not tree.bulges
+    monkeypatch.setattr(tol, "MISSED_CAP_SPAN", 1.01 * span)
+    with pytest.raises(NotTubularError, match="without an axis"):
+        vesselgp.fit_vessel_tree(V, F)
+
+
+@needs_real("gmsh_aortic-arch_open.stl")
+def test_a_short_wide_vessel_is_an_end_at_the_edge_of_its_tube(caplog, monkeypatch):
+    """MISSED_MIN_TUBE at its edge: the gmsh arch made at a third of its least radius, whose ascending aorta runs on
+    behind its missed end for less than ENDS_SAC_TUBE_RADII of its radii and meets the arch without narrowing (the
+    tube read is logged). With the limit just below that length the end is found, just above it it is not."""
+    name = "gmsh_aortic-arch_open.stl"
+    V, F, (Vm, Fm) = _remade(name, 3.0, scale=1000.0)
+    ascending = max(vesselgp.vessel_ends(V, F), key=lambda e: e.radius)
+
+    def found():
+        return min(np.linalg.norm(e.center - ascending.center) for e in vesselgp.fit_vessel_tree(Vm, Fm).ends) \
+            < ascending.radius
+
+    with caplog.at_level(logging.DEBUG, logger="vesselgp.missed_ends"):
+        assert found()
+    tubes = _logged(caplog, r"tube ([0-9.]+) radii behind it, narrowed False")
+    tube = max(t for t in tubes if t < tol.ENDS_SAC_TUBE_RADII)
+    monkeypatch.setattr(tol, "MISSED_MIN_TUBE", 0.99 * tube)
+    assert found()
+    monkeypatch.setattr(tol, "MISSED_MIN_TUBE", 1.01 * tube)
+    assert not found()

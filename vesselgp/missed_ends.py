@@ -99,10 +99,12 @@ def missed_ends(pm, lines):
     balls = (C, (1.0 + tol.CHECK_COVER_TOLERANCE) * Rl)
     w = topo.edge_lengths(V)
     h, graph = float(np.median(w)), topo.edge_matrix(w)
+    from_wall = _from_the_wall(V, graph, np.flatnonzero(topo.referenced), balls)
+    normals = _face_normals(V, pm.checked.faces)
     for c in np.unique(where[cand]):
         mine = cand[where[cand] == c]
         k = int(mine[np.argmax(dE[mine])])
-        end = _end_beyond(pm, cc, R, pred, k, graph, h, float(dE[k] + R[k]), balls)
+        end = _end_beyond(pm, cc, R, pred, k, graph, h, float(dE[k] + R[k]), from_wall, normals)
         if end is not None:
             return [end]
     return []
@@ -127,7 +129,7 @@ def _past_the_lines(G, cc, R, inside, reached):
     return dist, pred
 
 
-def _end_beyond(pm, cc, R, pred, k, graph, h, dE_k, lines_balls):
+def _end_beyond(pm, cc, R, pred, k, graph, h, dE_k, from_wall, normals):
     """The rounded end where the way to Voronoi vertex ``k`` meets the surface past it, or None (no surface met,
     no end read there, or a sac's dome: logged)."""
     # the way's direction over the last radius
@@ -145,11 +147,11 @@ def _end_beyond(pm, cc, R, pred, k, graph, h, dE_k, lines_balls):
     for _ in range(tol.MISSED_RECENTRE + 1):  # read, then again from where the read end's own axis meets the surface
         if hit is None:
             break
-        tip = _farthest_near(pm, graph, used, hit, tol.MISSED_SEARCH * R[k], lines_balls)
+        tip = _farthest_near(V, used, hit, tol.MISSED_SEARCH * R[k], from_wall)
         if rec is not None and tip == rec["tip"]:
             break
         where = f"at {np.round(hit, 3).tolist()}"
-        rec = _read_end(pm, graph, tip, h, dE_k) or rec
+        rec = _read_end(pm, graph, tip, h, dE_k, normals) or rec
         if rec is None:
             break
         hit = _surface_ahead(pm, np.asarray(rec["center"], np.float64), np.asarray(rec["direction"], np.float64),
@@ -158,6 +160,8 @@ def _end_beyond(pm, cc, R, pred, k, graph, h, dE_k, lines_balls):
         log.info("the lumen runs on %.3g past the centre lines to the surface, where no end is read", R[k])
         return None
     tube, narrowed = own_tube(V, graph, rec, h, why=True)
+    log.debug("missed end read at %s: radius %.4g, tube %.4g radii behind it, narrowed %s", where, rec["radius"],
+              tube, narrowed)
     if tube < tol.ENDS_SAC_TUBE_RADII and (narrowed or tube < tol.MISSED_MIN_TUBE):
         log.info("the lumen runs on past the centre lines to a dome of radius %.4g %s whose tube goes on for %.2g "
                  "radii only%s: a sac, not a vessel end", rec["radius"], where, tube,
@@ -181,16 +185,25 @@ def _beyond(V, graph, rec):
     return np.union1d(near[ahead], np.asarray(rec["region"], np.int64))
 
 
-def _farthest_near(pm, graph, used, hit, reach, balls):
-    """The surface vertex within ``reach`` of the point ``hit`` farthest along the surface from the wall the lines'
-    spheres ``balls`` reach: a flat cap's centre (the rim is nearer), a dome's pole."""
-    V = pm.V
-    near = used[np.linalg.norm(V[used] - hit, axis=1) <= reach]
+def _from_the_wall(V, graph, used, balls):
+    """Each vertex's distance along the surface from the wall the lines' spheres ``balls`` reach, (n,) float64 (inf
+    where none is reached)."""
     wall = used[within_balls(V[used], *balls)]
-    if not len(near) or not len(wall):
-        return int(used[np.argmin(np.linalg.norm(V[used] - hit, axis=1))])
-    g = dijkstra(graph, directed=False, indices=wall, min_only=True)
+    if not len(wall):
+        return np.full(len(V), np.inf)
+    return dijkstra(graph, directed=False, indices=wall, min_only=True)
+
+
+def _farthest_near(V, used, hit, reach, g):
+    """The surface vertex within ``reach`` of the point ``hit`` farthest along the surface from the reached wall
+    (``g``, :func:`_from_the_wall`): a flat cap's centre (the rim is nearer), a dome's pole."""
+    d = np.linalg.norm(V[used] - hit, axis=1)
+    near = used[d <= reach]
+    if not len(near):
+        return int(used[np.argmin(d)])
     far = np.where(np.isfinite(g[near]), g[near], -1.0)
+    if not (far >= 0).any():
+        return int(used[np.argmin(d)])
     return int(near[int(np.argmax(far))])
 
 
@@ -203,13 +216,12 @@ def _surface_ahead(pm, p, u, reach, h):
     return Q[out[0]] if len(out) else None
 
 
-def _read_end(pm, graph, tip, h, reach):
+def _read_end(pm, graph, tip, h, reach, normals):
     """The end read from the surface about vertex ``tip``: a rounded tip's test first (:func:`_tip`, recentred on
-    its dome's pole), else the rings' crossing from a dome or a disk into the tube (:func:`_crossing_end`),
-    started again from where the axis of its rings meets the surface."""
+    its dome's pole; ``normals`` the faces' unit normals and twice their areas), else the rings' crossing from a
+    dome or a disk into the tube (:func:`_crossing_end`)."""
     V, F = pm.V, pm.checked.faces
-    N, A = _face_normals(V, F)
-    rec = _tip(V, (F, N, A), graph, tip, reach, h)
+    rec = _tip(V, (F, *normals), graph, tip, reach, h)
     if rec is not None and rec.get("tube", True):
         return rec
     return _crossing_end(V, graph, tip, h)

@@ -674,7 +674,7 @@ def _spans_its_lumen(pm, cap):
     behind = float(R[ids][near].max()) if near.any() else 0.0
     if cap.radius >= tol.MISSED_CAP_SPAN * behind:
         return True
-    log.info("the flat patch %s no centre line reaches spans %.2g of the lumen's largest sphere behind it (radius "
+    log.info("the flat patch %s no centre line reaches spans %.4g of the lumen's largest sphere behind it (radius "
              "%.4g): not a whole cross-section, not taken for a cap", cap.describe(), cap.radius / behind, behind)
     return False
 

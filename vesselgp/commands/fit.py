@@ -90,6 +90,7 @@ def run_fit(mesh, out, *, ends=None, root=None, n_nodes=None, lam=None, axis_for
     V, F, uinfo = read_mesh_in(mesh, units, scale)
     pm = PreparedMesh(V, F)  # checked once: the ends, the fit, the centre lines' inscribed radius
     if ends is None and len(pm.ends) >= 2:  # ends the end tests missed count (vesselgp.tree.with_missed_ends)
+        # (with two ends ``root`` names where the axis starts; the lines are then drawn from the widest)
         pm = with_missed_ends(pm, root if len(pm.ends) > 2 else None)
     if ends is None and len(pm.ends) > 2:
         return run_fit_tree(pm, mesh, out, uinfo, root=root, lam=lam, axis_format=axis_format, render=render)
