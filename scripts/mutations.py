@@ -32,6 +32,49 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    # --- issue #47 (2026-12-07, evening): vessels cut obliquely and capped flat (vesselgp.mesh._ends_caps)
+    "oblique_cap_rim_not_judged_across_its_axis": (
+        "vesselgp/mesh/_ends_caps.py",
+        "        ahat[again] = [along[c][0] for c in again]",
+        "        ahat[again] = mhat[again]",
+        ["tests/test_oblique_caps.py"],
+    ),
+    "oblique_cap_body_measured_about_its_normal": (
+        "vesselgp/mesh/_ends_caps.py",
+        "        axis = along[c][0] if c in along else None",
+        "        axis = None",
+        ["tests/test_oblique_caps.py"],
+    ),
+    "oblique_cap_no_obliquity_limit": (
+        "vesselgp/mesh/_ends_caps.py",
+        "    along = {c: t for c, t in tubes.items() if t[1] <= tol.CAP_MAX_OBLIQUITY}",
+        "    along = dict(tubes)",
+        ["tests/test_oblique_caps.py::test_the_obliquity_limit_at_its_edge"],
+    ),
+    "oblique_cap_any_wall_a_tube": (
+        "vesselgp/mesh/_ends_caps.py",
+        "        if spread <= tol.ENDS_TIP_AXIS_SPREAD:  # else not the wall of one tube",
+        "        if True:",
+        ["tests/test_oblique_caps.py::test_the_tube_behind_an_oblique_cap_must_be_one_tube_at_the_spreads_edge"],
+    ),
+    "oblique_cap_sectors_not_weighted_alike": (
+        "vesselgp/mesh/_ends_caps.py",
+        "    wt = A / share[k]",
+        "    wt = A",
+        ["tests/test_oblique_caps.py::test_the_tube_behind_an_oblique_cap_must_be_one_tube_at_the_spreads_edge"],
+    ),
+    "zone_points_not_clipped_to_the_line": (
+        "vesselgp/tree.py",
+        "    return line[np.minimum(np.searchsorted(chord_length(line), zones), len(line) - 1)]",
+        "    return line[np.searchsorted(chord_length(line), zones)]",
+        ["tests/test_medial_zones.py::test_a_zone_ending_a_rounding_past_the_line_takes_its_last_point"],
+    ),
+    "oblique_cap_slivers_counted_unwalled": (
+        "vesselgp/mesh/_ends_caps.py",
+        "        sides.append((p, np.where(upright, s, 0), length[ok] * ~(upright & (s == 0))))",
+        "        sides.append((p, np.where(upright, s, 0), length[ok]))",
+        ["tests/test_oblique_caps.py"],
+    ),
     # --- issue #47 (2026-12-07): ends found from the lumen (vesselgp.missed_ends), medial zones densified
     "missed_ends_never_added": (
         "vesselgp/tree.py",

@@ -491,6 +491,15 @@ CAP_TUBE_DEEP = 0.5
 #: annulus; a terrace of a staircase is followed by a wider one, not a narrower). A root wider still is
 #: reported (a flat patch that is not a cap) and taken for a cap by the fit when no axis reaches it.
 CAP_TUBE_BULGE = 1.7
+#: Caps on a vessel cut obliquely (a segmentation clipped by its field of view): a flat disk whose rim the
+#: wall meets on part of its length only is judged across the axis of the tube behind it, from the wall's
+#: face normals within CAP_OBLIQUE_REACH rim radii of its rim along the surface, when that axis runs within
+#: CAP_MAX_OBLIQUITY (radians) of the disk's normal: 1.15 rad, 66 degrees, a rim 2.5 times as long as it is
+#: wide (a plane nearer the tube's side cuts a slot along it, no end).
+CAP_OBLIQUE_REACH = 1.0
+#: ... its faces weighted alike in this many sectors about the axis (the wall is longer on one side).
+CAP_OBLIQUE_SECTORS = 12
+CAP_MAX_OBLIQUITY = 1.15
 #: Rounded tips: maxima of the geodesic distance from the other ends whose persistence is
 #: below this many median edges are noise on a ridge, not tips.
 ENDS_TIP_MIN_PERSISTENCE = 3.0

@@ -528,7 +528,7 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
                                r.it.radii)  # the first fit's radii (the junctions moved the ends only)
         nodes[b], zones = medial_zones(nodes[b], line, R, r.rscale, through=(True, True), fit_radius=fit_radius,
                                        skip_start=zone[b])
-        medial[b] = np.concatenate([medial[b], line[np.searchsorted(chord_length(line), zones)]])
+        medial[b] = np.concatenate([medial[b], _zone_points(line, zones)])
     branches, axes = _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu)
     if _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial):
         branches, axes = _branch_cylinders(V, area, caps, raw, nodes, br, root, leaf_tip, lam, mu)
@@ -577,7 +577,7 @@ def _raw_branch(b, idx, it, p, br, how):
         # then an outlier, not a radius of 6.5 where the lumen's is 2 (a bulge, whose reach hid that vessel
         # from the checks: issue #47)
         it = replace(it, radii=np.interp(np.linspace(0.0, a[-1], len(it.nodes)), a, br.line_radius[b]))
-    medial = br.lines[b][np.searchsorted(chord_length(br.lines[b]), zones)]  # (z, 2, 3) ends
+    medial = _zone_points(br.lines[b], zones)  # (z, 2, 3) ends
     return _RawBranch(idx=idx, nodes=nodes, s=it.s, it=it, rscale=p.rscale), medial
 
 
@@ -713,7 +713,7 @@ def _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial)
         line, R = lines[b]
         nodes[b], zones = medial_zones(nodes[b], line, R, raw[b].rscale, through=(True, True), skip_start=zone[b],
                                        sharp_s=sharp)
-        medial[b] = np.concatenate([medial[b], line[np.searchsorted(chord_length(line), zones)]])
+        medial[b] = np.concatenate([medial[b], _zone_points(line, zones)])
         log.info("tree branch %d: its axis turns tighter than its fitted radius at s = %.3g-%.3g; the centre "
                  "line there", b, sharp.min(), sharp.max())
         changed = True
@@ -736,6 +736,16 @@ def _through_junctions(b, br, junctions, junction_branch):
     P, R = np.vstack(parts), np.concatenate(radii)
     keep = np.r_[True, np.linalg.norm(np.diff(P, axis=0), axis=1) > 0]
     return P[keep], R[keep]
+
+
+def _zone_points(line, zones):
+    """The points of polyline ``line`` (k, 3) at or next after the arc lengths ``zones`` (z, 2): (z, 2, 3) float64.
+
+    A zone's arc lengths are measured on the line densified (:func:`vesselgp.medial_zones.medial_zones`), whose
+    length may exceed this one's by a rounding: a zone ending at the line's end then takes its last point (the
+    voxelised aneurysm remeshed at 1.4 edges on one machine: an index one past the end, a crash).
+    """
+    return line[np.minimum(np.searchsorted(chord_length(line), zones), len(line) - 1)]
 
 
 def _zone_s(axis, ends):

@@ -97,12 +97,24 @@ def find_caps(V, F, topo, N, A, graph):
     order = np.argsort(lab, kind="stable")
     starts = np.searchsorted(lab[order], cands)
     counts = size[cands]
+    # a vessel cut obliquely: its wall runs along the tube's axis, not along the cap's normal
+    tubes = _oblique_axes(V, F, N, A, cands, order, starts, counts, mhat, graph)
+    along = {c: t for c, t in tubes.items() if t[1] <= tol.CAP_MAX_OBLIQUITY}  # a slot along the side: no end
+    again = [c for c in along if not sign[c]]
+    if again:  # the rims the wall meets in part only, again across their tubes' axes
+        ahat = mhat.copy()
+        ahat[again] = [along[c][0] for c in again]
+        sign2, walled2 = _rim_sides(V, F, topo, N, lab, flat, mhat, rim, ahat)
+        sign[again], walled[again] = sign2[again], walled2[again]
     caps, refused = [], []
     for c, s0, k in zip(cands, starts, counts):
         fids = np.sort(order[s0:s0 + k])
         side = sign[c] if sign[c] else -1  # a partly walled patch: the wall is taken to lie behind its normal
-        cap = (_closing_cap(V, F, fids, A, -side * mhat[c], graph) if sign[c] else
-               f"its rim is met by the wall on {100 * walled[c]:.0f} % of its length only (a rounded or ragged rim)")
+        axis = along[c][0] if c in along else None
+        cap = (_closing_cap(V, F, fids, A, -side * mhat[c], graph, axis) if sign[c] else
+               f"its rim is met by the wall on {100 * walled[c]:.0f} % of its length only (a rounded or ragged rim)"
+               + (f"; the tube behind it runs {np.degrees(tubes[c][1]):.0f} degrees off its normal" if c in tubes
+                  else ""))
         if isinstance(cap, str):
             if cap != "not a disk" and _is_disk(F, fids):
                 refused.append(_disk(V, F, fids, A, -side * mhat[c]) + (cap,))
@@ -165,13 +177,15 @@ def _flat_patches(topo, N, A, lab, ncomp):
     return flat, mhat
 
 
-def _rim_sides(V, F, topo, N, lab, flat, mhat, rim):
+def _rim_sides(V, F, topo, N, lab, flat, mhat, rim, ahat=None):
     """For each patch, on which side of its plane the wall lies round its rim.
 
     Across a rim edge of a flat patch, the wall face stands within
-    ``tolerances.CAP_RIM_TILT`` of perpendicular to the patch and its third
+    ``tolerances.CAP_RIM_TILT`` of parallel to the patch's unit normal (or to its row of ``ahat``,
+    the axis of the tube behind an oblique cap, :func:`_oblique_axes`) and its third
     vertex lies off the patch's plane; it must do so on one side along at least
-    ``tolerances.CAP_RIM_WALLED_FRACTION`` of the rim's length.
+    ``tolerances.CAP_RIM_WALLED_FRACTION`` of the rim's length (the rim edges of upright slivers, whose
+    third vertex lies within ``CAP_RIM_MIN_SLOPE`` of the plane, left out of that length).
 
     Returns
     -------
@@ -191,7 +205,8 @@ def _rim_sides(V, F, topo, N, lab, flat, mhat, rim):
         ok = flat[p]
         p, w, e = p[ok], wall[ok], E[ok]
         n = mhat[p]
-        upright = np.abs(np.einsum("ij,ij->i", N[w], n)) <= np.sin(tol.CAP_RIM_TILT)
+        a = n if ahat is None else ahat[p]
+        upright = np.abs(np.einsum("ij,ij->i", N[w], a)) <= np.sin(tol.CAP_RIM_TILT)
         Fw = F[w]
         third = np.where((Fw[:, 0] != e[:, 0]) & (Fw[:, 0] != e[:, 1]), Fw[:, 0],
                          np.where((Fw[:, 1] != e[:, 0]) & (Fw[:, 1] != e[:, 1]), Fw[:, 1], Fw[:, 2]))
@@ -199,7 +214,9 @@ def _rim_sides(V, F, topo, N, lab, flat, mhat, rim):
         reach = np.linalg.norm(off, axis=1)
         h = np.einsum("ij,ij->i", off, n)
         s = np.where(h > tol.CAP_RIM_MIN_SLOPE * reach, 1, np.where(h < -tol.CAP_RIM_MIN_SLOPE * reach, -1, 0))
-        sides.append((p, np.where(upright, s, 0), length[ok]))
+        # an upright face whose third vertex lies on the plane is a sliver (a clipper's cut beside a vertex it
+        # nearly met): it says nothing of the side, and its edge is left out of the rim's length
+        sides.append((p, np.where(upright, s, 0), length[ok] * ~(upright & (s == 0))))
     p, s, ln = (np.concatenate(x) for x in zip(*sides))
     rim_len = np.bincount(p, weights=ln, minlength=ncomp)
     pos = np.bincount(p, weights=ln * (s == 1), minlength=ncomp)
@@ -245,16 +262,83 @@ def _body_behind(V, G, loop, ids, center, n_out, size):
     return V[body] - center, depth[body]
 
 
-def _closing_cap(V, F, fids, A, n_out, graph):
-    """(faces, loop, centre, normal) when the patch is a disk that closes the tube, else why not (str)."""
+def _oblique_axes(V, F, N, A, cands, order, starts, counts, mhat, graph):
+    """The axes of the tubes behind the candidate flat disks: {patch: (outward unit axis, its angle to the normal)}.
+
+    A vessel cut obliquely and capped flat (a segmentation clipped by its field of view) meets its cap at
+    ``pi / 2`` minus the cut's obliquity on one side of the rim: past ``tolerances.CAP_RIM_TILT`` the rim test
+    fails there, and the tube behind runs off the cap's normal (the body test, :func:`_closing_cap`, measured
+    about the normal, took a tube cut at 34 degrees for a terrace). The wall behind such a disk (within
+    ``CAP_OBLIQUE_REACH`` rim radii of the rim along the surface, behind its plane, faces of positive area)
+    gives the tube's axis, the direction its face normals are all across
+    (their scatter's least eigenvector, its ratio to the middle one at most ``ENDS_TIP_AXIS_SPREAD``: a
+    tube, not a bulb), turned outward. :func:`find_caps` uses the axes within ``CAP_MAX_OBLIQUITY`` of their
+    disk's normal (a slot cut along a vessel's side is no end): the rim test of a disk whose rim
+    the wall meets in part only is made again across that axis (:func:`_rim_sides`), and the body behind
+    every disk with an axis is measured about it. A rim the remesher rounded off, on a cap square to its
+    tube, has its axis along its normal and is judged as before.
+    """
+    out = {}
+    for c, s0, k in zip(cands, starts, counts):
+        fids = order[s0:s0 + k]
+        ids = np.unique(F[fids])
+        n = mhat[c]
+        # the wall's side: where the surface near the patch lies (the rim test's third vertices)
+        G = graph()
+        P = V[ids]
+        amax = float(np.linalg.norm(P - P.mean(axis=0) - np.outer((P - P.mean(axis=0)) @ n, n), axis=1).max())
+        if not amax > 0:
+            continue
+        g = dijkstra(G, indices=ids, min_only=True, limit=tol.CAP_OBLIQUE_REACH * amax)
+        near = np.isfinite(g)
+        near[ids] = False
+        h = (V[near] - P.mean(axis=0)) @ n
+        side = -1.0 if np.sum(h < 0) >= np.sum(h > 0) else 1.0  # the wall lies on this side of n
+        behind = near & (((V - P.mean(axis=0)) @ n) * side > 0)
+        faces = behind[F].all(axis=1) & (A > 0)  # (a zero-area face has no normal)
+        if np.count_nonzero(faces) < 3:
+            continue
+        w, U = _round_axis(N[faces], A[faces], V[F[faces]].mean(axis=1))
+        axis = U[:, 0] if U[:, 0] @ n * side < 0 else -U[:, 0]  # outward: against the wall's side
+        angle = float(np.arccos(np.clip(axis @ (-side * n), -1.0, 1.0)))
+        spread = float(w[0] / max(w[1], 1e-300))
+        log.debug("the wall behind the flat patch at %s: axis %.4g degrees off its normal, normals' spread %.6g",
+                  np.round(P.mean(axis=0), 3).tolist(), np.degrees(angle), spread)
+        if spread <= tol.ENDS_TIP_AXIS_SPREAD:  # else not the wall of one tube
+            out[int(c)] = (axis, angle)
+    return out
+
+
+def _round_axis(N, A, C):
+    """Eigenvalues (3,) and vectors (3, 3) of the face normals' scatter, each of ``tolerances.CAP_OBLIQUE_SECTORS``
+    sectors about the first estimate of the axis weighted alike: the wall behind an oblique cut is longer on
+    one side, and on a tapered tube (a cone, whose normals lean along its axis) that side would tilt the axis
+    (by 4 degrees at a taper of 15 degrees cut at 54). The least eigenvector is the axis."""
+    w, U = np.linalg.eigh((N * A[:, None]).T @ N)
+    a, u = U[:, 0], U[:, 1]
+    X = C - C.mean(axis=0)
+    k = ((np.arctan2(X @ np.cross(a, u), X @ u) + np.pi) * (tol.CAP_OBLIQUE_SECTORS / (2 * np.pi))).astype(np.int64)
+    k = np.minimum(k, tol.CAP_OBLIQUE_SECTORS - 1)
+    share = np.bincount(k, weights=A, minlength=tol.CAP_OBLIQUE_SECTORS)
+    wt = A / share[k]
+    return np.linalg.eigh((N * wt[:, None]).T @ N)
+
+
+def _closing_cap(V, F, fids, A, n_out, graph, axis=None):
+    """(faces, loop, centre, normal) when the patch is a disk that closes the tube, else why not (str).
+
+    The tube behind it is measured about the line through its centre along ``axis`` (unit, outward; an
+    oblique cap's, :func:`_oblique_axes`), by default along its normal ``n_out``.
+    """
     ids, local = np.unique(F[fids], return_inverse=True)
     patch = MeshTopology(np.ascontiguousarray(local.reshape(-1, 3), dtype=np.int64), len(ids))
     loops = patch.boundary_loops
     if len(loops) != 1 or patch.euler_characteristic != 1:
         return "not a disk"
     _, loop, center, _ = _disk(V, F, fids, A, n_out)
+    ax = n_out if axis is None else axis
     P = V[loop] - center
-    lateral = np.linalg.norm(P - np.outer(P @ n_out, n_out), axis=1)
+    lateral = np.linalg.norm(P - np.outer(P @ ax, ax), axis=1)
     a, amax = float(lateral.mean()), float(lateral.max())
     if not a > 0:
         return "not a disk"
@@ -272,7 +356,10 @@ def _closing_cap(V, F, fids, A, n_out, graph):
     X, depth = _body_behind(V, G, loop, ids, center, n_out, max(amax, float(np.median(rows.data))))
     if not len(X):  # an outlet an edge or two across: its body is the reach's
         X, depth = V[near] - center, np.maximum(depth_reach, 0.0)
-    side = np.linalg.norm(X + np.outer(depth, n_out), axis=1)
+    if axis is not None:  # depths along the tube's axis, sides off it
+        depth = np.maximum(-(X @ ax), 0.0)
+    side = np.linalg.norm(X + np.outer(depth, ax), axis=1) if axis is None else \
+        np.linalg.norm(X - np.outer(X @ ax, ax), axis=1)
     flare = tol.CAP_TUBE_FLARE * depth
     deep = depth >= depth.max() - tol.CAP_TUBE_DEEP * a
     if np.any(side[deep] > tol.CAP_TUBE_SPREAD * amax + flare[deep]):
