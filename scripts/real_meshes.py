@@ -19,7 +19,10 @@ replaces the shared one).
 
 With ``--coarser`` each mesh is instead fitted as copies made by pymeshlab (isotropically remeshed at
 0.7, 1.4 and 2 median edges, decimated to 30 % and 15 % of its faces) and with normal noise of 0.1
-and 0.3 median edges, against VMTK's lines of the original: other meshes of the same anatomy.
+and 0.3 median edges, against VMTK's lines of the original: other meshes of the same anatomy. With
+``--remade``, made again by marching cubes (``data_gen/remade.py``); with ``--clipped``, clipped by planes as a
+field of view cuts it, open and capped by fans (``data_gen/clipped.py``; VMTK's lines compared in front of the
+plane only).
 """
 from __future__ import annotations
 
@@ -104,6 +107,41 @@ def _remade(path, V, F, k):
     return remade(V, F, voxel)
 
 
+def _in_front(P, R, V, variant):
+    """Which of VMTK's points ``P`` (radii ``R``) are compared: all, or for a clipped copy those at least
+    2.5 of their radii in front of the plane and within 1.3 of them of a kept vertex."""
+    if variant is None or variant[0] != "clipped":
+        return np.ones(len(P), bool)
+    n, c = variant[2], variant[3]
+    return ((P - c) @ n > 2.5 * R) & (cKDTree(V).query(P)[0] < 1.3 * R)
+
+
+def _clipping(path, V, F):
+    """The planes of ``data_gen/clipped.py`` that cut ``(V, F)`` as a field of view does: ``[(tag, normal, point)]``,
+    and the others with why not (printed)."""
+    sys.path.insert(0, str(ROOT / "data_gen"))
+    from clipped import clipped, planes, unlike_a_field_of_view
+
+    kept = []
+    for tag, n, c in planes(V, path.name):
+        W, G = clipped(V, F, n, c, cap=False)
+        why = unlike_a_field_of_view(W, G, n, c)
+        if why:
+            print(f"<!-- {path.name} {tag}: not tried, {why} -->", flush=True)
+        else:
+            kept.append((tag, n, c))
+    return kept
+
+
+def _oriented(V, F):
+    """``F`` turned coherently by pymeshlab (the voxelised aneurysm's faces are not)."""
+    import pymeshlab
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(V, F))
+    ms.meshing_re_orient_faces_coherently()
+    return ms.current_mesh().face_matrix().astype(np.int64)
+
+
 #: ``--remade`` makes no grid larger than this (the XCAT tree at a fifth of its least radius: 5.3e8 voxels)
 REMADE_MAX_CELLS = 1.5e8
 
@@ -126,6 +164,12 @@ def _row(path, vmtk=None, variant=None):
             V, F = _remade(path, V, F, variant[1])
         except MemoryError as e:
             return [name] + ["-"] * 10 + [f"not made: {e}"]
+    elif variant is not None and variant[0] == "clipped":
+        sys.path.insert(0, str(ROOT / "data_gen"))
+        from clipped import clipped
+        _, tag, n, c, cap = variant
+        V, F = clipped(V, _oriented(V, F), n, c, cap=cap)
+        name = f"{path.name} clipped {tag}, {'capped by a fan' if cap else 'open'}"
     elif variant is not None:
         V, F = _coarser(V, F, *variant)
         name = f"{path.name} {variant[0]} {variant[1]:g}"
@@ -153,14 +197,15 @@ def _row(path, vmtk=None, variant=None):
         n += len(Q)
     ref = _reference(path)
     dense = cKDTree(np.vstack([p.dense_points for p in tree.paths]))
-    d = np.concatenate([dense.query(ref[f"line{k}_points"])[0] / ref[f"line{k}_radius"]
-                        for k in range(sum(f.endswith("_points") for f in ref.files))])
+    d = np.concatenate([dense.query(ref[f"line{k}_points"][kept])[0] / ref[f"line{k}_radius"][kept]
+                        for k in range(sum(f.endswith("_points") for f in ref.files))
+                        for kept in [_in_front(ref[f"line{k}_points"], ref[f"line{k}_radius"], V, variant)]])
     zoned = sum(1 for z in tree.medial_zones if len(z))
     bul = ", ".join(f"{b.ratio:.2f}x" for b in tree.bulges) or "-"
     tv = "-" if vmtk is None else f"{_vmtk_seconds(vmtk, V, F, tree.ends, tree.root):.2f}"
     c = tree.checks
     return [name, str(len(tree.ends)), f"{len(tree.paths)} paths", f"{100 * inside / n:.1f} / {100 * clear / n:.1f}",
-            f"{d.mean():.3f} / {d.max():.2f}", f"{zoned} of {len(tree.branches)}", bul, f"{c.worst_end_gap:.2f}",
+            f"{d.mean():.3f} / {d.max():.2f}" if len(d) else "-", f"{zoned} of {len(tree.branches)}", bul, f"{c.worst_end_gap:.2f}",
             f"{100 * c.covered_fraction:.2f} / {c.largest_uncovered:.2f}", f"{dt:.2f}", tv, ""]
 
 
@@ -172,6 +217,9 @@ def main():
                     help="instead, copies of each mesh remeshed, decimated and noisier (VMTK's lines of the original)")
     ap.add_argument("--remade", action="store_true",
                     help="instead, each mesh made again by marching cubes at a third and a fifth of its least radius")
+    ap.add_argument("--clipped", action="store_true",
+                    help="instead, each mesh clipped by planes as a field of view cuts it, open and capped by fans "
+                         "(data_gen/clipped.py; VMTK's lines of the original in front of the plane)")
     args = ap.parse_args()
     files = sorted(p for p in Path(args.data).iterdir() if p.suffix in (".stl", ".vtp", ".ply", ".obj"))
     head = ["mesh", "ends", "fit", "inside / clear (%)", "VMTK line to path (r): mean / worst",
@@ -180,6 +228,14 @@ def main():
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for f in files:
+        if args.clipped:
+            V, F = vesselgp.read_mesh(f)[:2]
+            V = V * TO_MM.get(f.name, 1.0)
+            F = _oriented(V, F)
+            for tag, n, c in _clipping(f, V, F):
+                for cap in (False, True):
+                    print("| " + " | ".join(_row(f, None, ("clipped", tag, n, c, cap))) + " |", flush=True)
+            continue
         copies = COARSER if args.coarser else REMADE if args.remade else [None]
         for variant in copies:
             print("| " + " | ".join(_row(f, None if variant else args.vmtk, variant)) + " |", flush=True)

@@ -167,10 +167,32 @@ def _end_beyond(pm, cc, R, pred, k, graph, h, dE_k, from_wall, normals):
                  "radii only%s: a sac, not a vessel end", rec["radius"], where, tube,
                  " and narrows" if narrowed else "")
         return None
+    sac = _a_known_sac(pm, rec, tube)
+    if sac:
+        log.info("the lumen runs on past the centre lines to a dome of radius %.4g %s: %s, not a vessel end",
+                 rec["radius"], where, sac)
+        return None
     scale = bbox_diagonal(V[used])
     end = _make_end(_Nearby(V), "rounded", _ordered_ring(V, rec), _beyond(V, graph, rec), rec["center"],
                     rec["direction"], scale)
     return replace(end, radius=float(rec["radius"]))
+
+
+def _a_known_sac(pm, rec, tube):
+    """Why the dome read (``rec``, its tube ``tube`` radii long) is a blind sac by :func:`vesselgp.vessel_ends`' own
+    rule, or "": it is the dome of a sac that function found (its centre within that sac's radius of the sac's), or
+    it is wider than ``tolerances.ENDS_SAC_RATIO`` times every open or capped end on a tube shorter than
+    ``ENDS_SAC_TUBE_RADII`` (a closed tube capped flat with an aneurysm on its side: the sac left out by the end
+    tests was found again here and made the tree's root)."""
+    c, r = np.asarray(rec["center"], np.float64), float(rec["radius"])
+    for centre, _, radius in pm.sacs:
+        if np.linalg.norm(c - centre) <= max(radius, r):
+            return f"the blind sac the end tests found (radius {radius:.4g})"
+    cut = [e.radius for e in pm.ends if e.kind in ("open", "cap")]
+    if cut and r > tol.ENDS_SAC_RATIO * max(cut) and tube < tol.ENDS_SAC_TUBE_RADII:
+        return (f"wider than {tol.ENDS_SAC_RATIO:g} times every open or capped end (the widest {max(cut):.4g}) on a "
+                f"tube of {tube:.2g} radii only: a blind sac")
+    return ""
 
 
 def _beyond(V, graph, rec):

@@ -79,6 +79,7 @@ class PreparedMesh:
         self.V, self.F = V, F
         self.checked = checked_mesh(V, F, topo)
         self._given_ends = None if ends is None else _valid_ends(ends)
+        self._searched = False  # whether vesselgp.tree.with_missed_ends has looked at these ends
         self._sacs, self._flat_patches = [], []
 
     @property
@@ -97,7 +98,8 @@ class PreparedMesh:
     def sacs(self):
         """tuple of ((3,) float64, (3,) float64, float): the blind sacs :func:`vesselgp.vessel_ends` left out
         of the ends (a rounded dome wider than every open or capped end), as its dome's centre, outward
-        direction and radius; empty when the ends were given."""
+        direction and radius; with the ends given, the domes a tree fit finds the lumen running on to past
+        them (:func:`vesselgp.tree.with_missed_ends`)."""
         _ = self.ends
         return tuple(self._sacs)
 
@@ -121,6 +123,15 @@ class PreparedMesh:
         other = copy.copy(self)
         other.__dict__.pop("ends", None)
         other._given_ends, other._sacs, other._flat_patches = _valid_ends(ends), list(self.sacs), []
+        other._searched = False
+        return other
+
+    def with_sacs(self, sacs):
+        """This mesh, its ends kept, with the blind sacs ``sacs`` (sequence of (centre (3,), outward direction (3,),
+        radius)) added to :attr:`sacs` (a new object; this one is left as it is)."""
+        other = self.with_ends(self.ends)
+        other._sacs = list(self.sacs) + [(np.asarray(c, np.float64), np.asarray(d, np.float64), float(r))
+                                         for c, d, r in sacs]
         return other
 
     @cached_property

@@ -58,6 +58,7 @@ from .fit import (check_cylinder_bend, cylinder_from_axis, cylinder_sharp_bends,
 from .inside import check_axis_inside
 from ._per_vertex import on_rows, rows_of
 from .medial_zones import medial_zones
+from .mesh._ends_tips import own_tube
 from .missed_ends import missed_ends
 from .prepared import prepared_mesh
 from .rotations import minimal_rotation
@@ -502,8 +503,11 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
     if len(pm.ends) < 2:
         raise EndsError(f"a vessel tree needs at least two ends, the mesh has {len(pm.ends)} "
                         "(see vesselgp.vessel_ends)")
+    found = pm._given_ends is None or pm._searched  # the ends were found (and searched for), not given
     pm = with_missed_ends(pm, root)
     ends = pm.ends
+    if root is None and found:
+        _warn_if_the_root_may_be_a_sac(pm, root_end(ends))
     root = root_end(ends, root)
     if len(ends) == 2:
         return _one_path(pm, root, fit_generalized_cylinder(pm, ends=(root, 1 - root), lam=lam, mu=mu,
@@ -655,9 +659,35 @@ def with_missed_ends(pm, root=None):
     PreparedMesh
         ``pm`` itself when nothing was missed.
     """
+    if pm._searched:  # (vesselgp fit looks before it decides between one vessel and a tree)
+        return pm
     given = pm._given_ends is not None  # ends the caller gave are the ends
     pm = _with_missed_caps(pm, root)
-    return pm if given else _with_missed_vessels(pm, root)
+    pm = _with_sacs_past_the_ends(pm, root) if given else _with_missed_vessels(pm, root)
+    pm._searched = True  # (a cache of this mesh's, as its diagram is: set on the object given when nothing was added)
+    return pm
+
+
+def _warn_if_the_root_may_be_a_sac(pm, root):
+    """A WARNING when the widest end, the tree's root by default, may be a blind sac's dome: a rounded end that goes
+    on as a tube of its own for less than ``tolerances.ENDS_SAC_TUBE_RADII`` of its radii
+    (:func:`vesselgp.mesh._ends_tips.own_tube`), on a mesh with no open or capped end. There
+    :func:`vesselgp.vessel_ends` cannot tell a sac from a vessel's end (its rule compares a dome with the cut ends),
+    and a sac wider than the vessels is taken for the root: the intracranial aneurysm made again by marching cubes
+    (its sac, 4.8 against 4.5 and 3.6, on a tube of 0.2 radii), the voxelised aneurysm with noise (its sac found
+    as a missed end, 7.1 against 3.4, on 2.0 radii). A vessel closed at its valve (the pulmonary trunk, 1.0 radii)
+    or whose cap was rounded off reads alike; the warning says so, and how to leave a sac out."""
+    e = pm.ends[root]
+    if e.kind != "rounded" or any(x.kind in ("open", "cap") for x in pm.ends):
+        return
+    tube = _own_tube_of(pm, e)
+    if tube < tol.ENDS_SAC_TUBE_RADII:
+        others = [i for i in range(len(pm.ends)) if i != root]
+        log.warning("the widest end, %d (%s), the tree's root, is a dome that goes on as a tube of its own for %.4g "
+                    "radii only: a blind sac's dome (an aneurysm) or a vessel closed at its valve or rounded off; a "
+                    "mesh with no open or capped end cannot tell them apart. If it is a sac, fit without it: "
+                    "vesselgp.fit_vessel_tree with the ends %s (ends=), or one path of them (vesselgp fit --ends I J)",
+                    root, e.describe(), tube, " ".join(map(str, others)))
 
 
 def _spans_its_lumen(pm, cap):
@@ -694,6 +724,42 @@ def _with_missed_vessels(pm, root):
                     "did not take its end for one): %s, end %d", new[0].describe(), len(pm.ends))
         pm = pm.with_ends(tuple(pm.ends) + tuple(new))
     return pm
+
+
+def _with_sacs_past_the_ends(pm, root):
+    """``pm`` (its ends given by the caller, none of them open or capped: the case of the root's warning,
+    :func:`_warn_if_the_root_may_be_a_sac`) with the domes the lumen runs on to past its centre lines
+    (:func:`missed_ends`) on a tube shorter than ``tolerances.ENDS_SAC_TUBE_RADII`` taken for blind sacs
+    (:meth:`vesselgp.PreparedMesh.with_sacs`): the ends given are the ends. Such a sac is reported as a bulge and
+    its wall described by it (a closed mesh whose widest dome was a sac, fitted again without it as that warning
+    says: the sac's wall was left without an axis and the fit refused). A dome on a longer tube is a vessel the
+    caller left out: nothing is added, and the cover check judges its wall as before."""
+    if any(e.kind in ("open", "cap") for e in pm.ends):
+        return pm
+    lines = centerlines(pm.V, pm.checked.faces, pm.ends, root_end(pm.ends, root), voronoi=pm.voronoi)
+    for _ in range(tol.MISSED_MAX_ENDS):
+        new = missed_ends(pm, lines)
+        if not new:
+            break
+        tube = _own_tube_of(pm, new[0])
+        if tube >= tol.ENDS_SAC_TUBE_RADII:  # a vessel left out by the caller: no sac (the cover check judges it)
+            log.info("the lumen runs on past every centre line to %s, which is none of the ends given; it goes on as "
+                     "a tube of %.4g radii: a vessel, not a sac", new[0].describe(), tube)
+            break
+        log.info("the lumen runs on past every centre line to %s, which is none of the ends given, on a tube of %.4g "
+                 "radii only: a blind sac", new[0].describe(), tube)
+        pm = pm.with_sacs([(new[0].center, new[0].direction, new[0].radius)])
+    return pm
+
+
+def _own_tube_of(pm, end):
+    """How far the rounded ``end`` goes on as a tube of its own, in its radii (:func:`own_tube` from its region's
+    vertex farthest along its direction)."""
+    V, topo = pm.V, pm.topology
+    w = topo.edge_lengths(V)
+    region = np.asarray(end.vertices, np.int64)
+    tip = int(region[np.argmax((V[region] - end.center) @ end.direction)])
+    return own_tube(V, topo.edge_matrix(w), {"tip": tip, "radius": end.radius}, float(np.median(w)))
 
 
 def _sharp_turns_to_centre_line(branches, axes, raw, nodes, lines, zone, medial):

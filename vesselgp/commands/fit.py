@@ -92,6 +92,8 @@ def run_fit(mesh, out, *, ends=None, root=None, n_nodes=None, lam=None, axis_for
     if ends is None and len(pm.ends) >= 2:  # ends the end tests missed count (vesselgp.tree.with_missed_ends)
         # (with two ends ``root`` names where the axis starts; the lines are then drawn from the widest)
         pm = with_missed_ends(pm, root if len(pm.ends) > 2 else None)
+    elif ends is not None and len(pm.ends) >= 2:  # the ends of one path named: what the lumen runs on to past
+        pm = with_missed_ends(pm.with_ends(pm.ends))  # every end found is a sac (a closed mesh's, whose root was)
     if ends is None and len(pm.ends) > 2:
         return run_fit_tree(pm, mesh, out, uinfo, root=root, lam=lam, axis_format=axis_format, render=render)
     if root is not None:
