@@ -7,12 +7,14 @@ each of its boundary loops (the plane's and any open end it had) by a fan about 
 and what most pipelines do. A vessel the plane crosses at an angle ends in an oblique flat cap whose rim the
 wall meets at 90 degrees minus the obliquity on one side.
 
-``python data_gen/clipped.py`` clips every real mesh of ``../shared/data/real`` by planes across its three
-principal directions and three random ones (the oblique-cap run of ``docs/real_meshes.md``).
+``python data_gen/clipped.py`` clips every real mesh of ``../shared/data/real`` by the planes of :func:`planes`,
+across its three principal directions and three random ones, into ``--out`` (``scripts/real_meshes.py
+--clipped`` fits them, open and capped: ``docs/real_meshes.md``).
 """
 from __future__ import annotations
 
 import argparse
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -72,6 +74,48 @@ def clipped(V, F, normal, point, cap=True):
     return W, G
 
 
+def planes(V, name):
+    """The clipping planes of a mesh: ``[(tag, normal, point)]``, the kept part in front of each.
+
+    Across each of its three principal directions at the 20th and 80th percentiles of the vertices (``pc<k>@<q>``,
+    the larger side kept), and three directions drawn from a generator seeded by the mesh's ``name`` at their 25th
+    percentiles (``obl<j>``).
+    """
+    c0 = V.mean(axis=0)
+    U = np.linalg.svd(V - c0, full_matrices=False)[2]
+    out = [(f"pc{k}@{q}", U[k] if q < 0.5 else -U[k], c0 + np.quantile((V - c0) @ U[k], q) * U[k])
+           for k in range(3) for q in (0.2, 0.8)]
+    rng = np.random.default_rng(zlib.crc32(name.encode()))
+    for j in range(3):
+        n = rng.normal(size=3)
+        n /= np.linalg.norm(n)
+        out.append((f"obl{j}", n, c0 + np.quantile((V - c0) @ n, 0.25) * n))
+    return out
+
+
+def unlike_a_field_of_view(V, F, normal, point):
+    """Why the open clip of ``(V, F)`` (:func:`clipped` with ``cap=False``) is not a field of view's cut, or None.
+
+    A cut loop longer than twice its width (a plane along a vessel's side cuts a slot, no end), or a loop that is
+    part cut and part an open end the mesh had (a fan over it is folded), or no cut at all.
+    """
+    from vesselgp.mesh import mesh_topology
+
+    n = np.asarray(normal, np.float64) / np.linalg.norm(normal)
+    tol = 1e-6 * float(np.ptp(V))
+    cuts = 0
+    for loop in mesh_topology(F, len(V)).boundary_loops:
+        on = np.abs((V[loop] - point) @ n) < tol
+        if on.all():
+            sv = np.linalg.svd(V[loop] - V[loop].mean(axis=0), compute_uv=False)
+            if sv[0] > 2.0 * sv[1]:
+                return f"a cut {sv[0] / sv[1]:.2g} times as long as it is wide"
+            cuts += 1
+        elif on.any():
+            return "the plane crosses an open end"
+    return None if cuts else "no cut"
+
+
 def _largest(V, F):
     """The largest connected piece of ``(V, F)`` by faces, its vertices renumbered."""
     A = coo_matrix((np.ones(F.size), (F.ravel(), np.roll(F, 1, axis=1).ravel())), shape=(len(V), len(V)))
@@ -101,18 +145,9 @@ def main(argv=None):
 
     out = Path(args.out)
     out.mkdir(exist_ok=True)
-    rng = np.random.default_rng(7)
     for path in sorted(Path(args.data).glob("*.st*")) + sorted(Path(args.data).glob("*.vtp")):
         V, F = vesselgp.read_mesh(path)[:2]
-        c0 = V.mean(axis=0)
-        U = np.linalg.svd(V - c0, full_matrices=False)[2]
-        planes = [(f"pc{k}@{q}", U[k] if q < 0.5 else -U[k], c0 + np.quantile((V - c0) @ U[k], q) * U[k])
-                  for k in range(3) for q in (0.2, 0.8)]
-        for j in range(3):
-            n = rng.normal(size=3)
-            n /= np.linalg.norm(n)
-            planes.append((f"obl{j}", n, c0 + np.quantile((V - c0) @ n, 0.25) * n))
-        for tag, n, c in planes:
+        for tag, n, c in planes(V, path.name):
             W, G = clipped(V, F, n, c)
             vesselgp.write_mesh(out / f"{path.stem}_{tag}.stl", W, G)
 
