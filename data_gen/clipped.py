@@ -77,19 +77,19 @@ def clipped(V, F, normal, point, cap=True):
 def planes(V, name):
     """The clipping planes of a mesh: ``[(tag, normal, point)]``, the kept part in front of each.
 
-    Across each of its three principal directions at the 20th and 80th percentiles of the vertices (``pc<k>@<q>``,
-    the larger side kept), and three directions drawn from a generator seeded by the mesh's ``name`` at their 25th
-    percentiles (``obl<j>``).
+    Across each of its three principal directions at the 20th, 35th, 65th and 80th percentiles of the vertices
+    (``pc<k>@<q>``, the larger side kept), and three directions drawn from a generator seeded by the mesh's ``name``
+    at their 25th and 50th percentiles (``obl<j>@<q>``).
     """
     c0 = V.mean(axis=0)
     U = np.linalg.svd(V - c0, full_matrices=False)[2]
     out = [(f"pc{k}@{q}", U[k] if q < 0.5 else -U[k], c0 + np.quantile((V - c0) @ U[k], q) * U[k])
-           for k in range(3) for q in (0.2, 0.8)]
+           for k in range(3) for q in (0.2, 0.35, 0.65, 0.8)]
     rng = np.random.default_rng(zlib.crc32(name.encode()))
     for j in range(3):
         n = rng.normal(size=3)
         n /= np.linalg.norm(n)
-        out.append((f"obl{j}", n, c0 + np.quantile((V - c0) @ n, 0.25) * n))
+        out += [(f"obl{j}@{q}", n, c0 + np.quantile((V - c0) @ n, q) * n) for q in (0.25, 0.5)]
     return out
 
 

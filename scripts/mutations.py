@@ -118,6 +118,24 @@ MUTATIONS = {
         "        pass",
         ["tests/test_sacs.py::test_the_command_line_names_a_sac_root_and_fits_one_path_past_it"],
     ),
+    "walled_patch_reached_not_a_missed_cap": (
+        "vesselgp/tree.py",
+        "              if (p.walled or not r) and _spans_its_lumen(pm, p.end)]",
+        "              if (not r) and _spans_its_lumen(pm, p.end)]",
+        ["tests/test_oblique_caps.py::test_a_real_arch_clipped_next_to_its_branches_keeps_the_cut_end"],
+    ),
+    "walled_patch_any_size": (
+        "vesselgp/mesh/_ends_caps.py",
+        "                behind = bool(sign[c]) and cap.startswith(_BODY) and k >= tol.CAP_SUSPECT_FACES",
+        "                behind = bool(sign[c]) and cap.startswith(_BODY)",
+        ["tests/test_oblique_caps.py::test_a_walled_patch_reached_by_the_lines_is_a_cap_from_its_facet_limit"],
+    ),
+    "reached_patch_any_span": (
+        "vesselgp/tree.py",
+        "_spans_its_lumen(pm, p.end, tol.MISSED_CAP_SPAN_MAX if r else np.inf)]",
+        "_spans_its_lumen(pm, p.end, np.inf)]",
+        ["tests/test_oblique_caps.py::test_a_reached_patch_spans_at_most_its_lumen_at_the_limit"],
+    ),
     "oblique_cap_slivers_counted_unwalled": (
         "vesselgp/mesh/_ends_caps.py",
         "        sides.append((p, np.where(upright, s, 0), length[ok] * ~(upright & (s == 0))))",

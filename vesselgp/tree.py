@@ -623,20 +623,27 @@ def _with_missed_caps(pm, root):
     vessel's wall (a facet); a patch that no inscribed sphere of theirs reaches, scaled by
     ``1 + tolerances.CHECK_COVER_TOLERANCE``, closes a vessel whose end was missed, and the fit would
     leave that vessel without an axis (or take it for a bulge of the path beside it: issue #44, a capped
-    arch whose ascending aorta's cap was missed). It becomes an end (logged at WARNING).
+    arch whose ascending aorta's cap was missed). So does a patch the wall meets round its whole rim, reached or
+    not, whose body behind failed the cap test (a vessel cut and capped next to a junction, whose body widens
+    into it: the 4D-flow arch clipped through its arch and capped by a fan lost that end, every check passing,
+    the lines to the other ends reaching its cap). Either becomes an end (logged at WARNING) if it spans its
+    lumen (:func:`_spans_its_lumen`).
     """
     if not pm.flat_patches:
         return pm
     lines = centerlines(pm.V, pm.checked.faces, pm.ends, root_end(pm.ends, root), voronoi=pm.voronoi)
     C, R = np.vstack(lines.points), (1.0 + tol.CHECK_COVER_TOLERANCE) * np.concatenate(lines.radius)
-    missed = [p.end for p in pm.flat_patches if not within_balls(p.end.center[None], C, R)[0]]
-    missed = [e for e in missed if _spans_its_lumen(pm, e)]
+    reached = [bool(within_balls(p.end.center[None], C, R)[0]) for p in pm.flat_patches]
+    missed = [(p.end, r) for p, r in zip(pm.flat_patches, reached)
+              if (p.walled or not r) and _spans_its_lumen(pm, p.end, tol.MISSED_CAP_SPAN_MAX if r else np.inf)]
     if not missed:
         return pm
-    for k, p in enumerate(missed):
-        log.warning("no centre line reaches the flat patch %s, which vesselgp.vessel_ends did not take for a cap; "
-                    "it is the cap of a vessel whose end was missed: end %d", p.describe(), len(pm.ends) + k)
-    return pm.with_ends(tuple(pm.ends) + tuple(missed))
+    for k, (p, r) in enumerate(missed):
+        log.warning("%s the flat patch %s, which vesselgp.vessel_ends did not take for a cap; it is the cap of a "
+                    "vessel whose end was missed: end %d",
+                    "the wall meets the whole rim of" if r else "no centre line reaches", p.describe(),
+                    len(pm.ends) + k)
+    return pm.with_ends(tuple(pm.ends) + tuple(e for e, _ in missed))
 
 
 def with_missed_ends(pm, root=None):
@@ -690,22 +697,27 @@ def _warn_if_the_root_may_be_a_sac(pm, root):
                     root, e.describe(), tube, " ".join(map(str, others)))
 
 
-def _spans_its_lumen(pm, cap):
+def _spans_its_lumen(pm, cap, most=np.inf):
     """Whether a flat patch is as wide as the lumen behind it (a whole cross-section, a vessel's cap): its radius at
     least ``tolerances.MISSED_CAP_SPAN`` of the largest inscribed sphere (inside Voronoi vertex) that reaches its
-    centre, scaled as the lines' spheres are. The flat terraces that marching cubes leaves on a wide cap whose rim
-    it rounded off are not (the gmsh arch made again at a fifth of its least radius: three patches of radius
-    2.8-3.7 on its ascending aorta's cap of 15.9, each taken for a missed vessel's cap before); the lumen's own
-    missed end is found instead (:func:`_with_missed_vessels`)."""
+    centre, scaled as the lines' spheres are, and at most ``most`` of it. The flat terraces that marching cubes
+    leaves on a wide cap whose rim it rounded off are not (the gmsh arch made again at a fifth of its least radius:
+    three patches of radius 2.8-3.7 on its ascending aorta's cap of 15.9, each taken for a missed vessel's cap
+    before); the lumen's own missed end is found instead (:func:`_with_missed_vessels`). A patch the lines reach is
+    held to ``tolerances.MISSED_CAP_SPAN_MAX`` too: a flat side of a coarse wall is wider than the lumen behind it
+    (the XCAT tree remeshed at 1.4 edges: 2.0 and 2.5 times it)."""
     cc, R, inside, _ = pm.voronoi.graph(False)
     ids = np.flatnonzero(inside)
     reach = (1.0 + tol.CHECK_COVER_TOLERANCE) * R[ids]
     near = np.linalg.norm(cc[ids] - cap.center, axis=1) <= reach
     behind = float(R[ids][near].max()) if near.any() else 0.0
-    if cap.radius >= tol.MISSED_CAP_SPAN * behind:
+    log.debug("the flat patch %s spans %.6g of the lumen's largest sphere behind it", cap.describe(),
+              cap.radius / max(behind, 1e-300))
+    if tol.MISSED_CAP_SPAN * behind <= cap.radius <= most * behind:
         return True
-    log.info("the flat patch %s no centre line reaches spans %.4g of the lumen's largest sphere behind it (radius "
-             "%.4g): not a whole cross-section, not taken for a cap", cap.describe(), cap.radius / behind, behind)
+    log.info("the flat patch %s spans %.4g of the lumen's largest sphere behind it (radius "
+             "%.4g): not a whole cross-section, not taken for a cap", cap.describe(), cap.radius / max(behind, 1e-300),
+             behind)
     return False
 
 

@@ -56,6 +56,9 @@ __all__ = ["find_caps"]
 
 log = logging.getLogger(__name__)
 
+#: how :func:`_closing_cap` begins the reasons of a patch whose body behind failed
+_BODY = "the body behind it"
+
 
 def find_caps(V, F, topo, N, A, graph):
     """Flat caps closing the vessel (see the module doc).
@@ -79,9 +82,11 @@ def find_caps(V, F, topo, N, A, graph):
         Face ids (c,) int64, the rim loop (k,) int64, the centre (3,) float64
         (area-weighted) and the unit normal (3,) float64 pointing out of the
         vessel (away from the wall behind the cap).
-    refused : list of (faces, loop, center, normal, reason)
+    refused : list of (faces, loop, center, normal, reason, walled)
         The flat disks met round their rims by the wall that do not close the
-        tube, with why (str).
+        tube, with why (str) and whether only the body behind failed (bool: the
+        wall meets the whole rim, the patch is no facet of fewer than
+        ``tolerances.CAP_SUSPECT_FACES`` faces, and the body widens or bulges).
     """
     split = _patches(topo, N)
     if split is None:
@@ -117,7 +122,8 @@ def find_caps(V, F, topo, N, A, graph):
                   else ""))
         if isinstance(cap, str):
             if cap != "not a disk" and _is_disk(F, fids):
-                refused.append(_disk(V, F, fids, A, -side * mhat[c]) + (cap,))
+                behind = bool(sign[c]) and cap.startswith(_BODY) and k >= tol.CAP_SUSPECT_FACES
+                refused.append(_disk(V, F, fids, A, -side * mhat[c]) + (cap, behind))
         else:
             caps.append(cap)
     log.debug("caps: %d patches, %d flat, %d walled round their rims, %d close the tube",
@@ -363,7 +369,7 @@ def _closing_cap(V, F, fids, A, n_out, graph, axis=None):
     flare = tol.CAP_TUBE_FLARE * depth
     deep = depth >= depth.max() - tol.CAP_TUBE_DEEP * a
     if np.any(side[deep] > tol.CAP_TUBE_SPREAD * amax + flare[deep]):
-        return f"the body behind it widens to {side[deep].max() / amax:.2g} times its rim (a terrace)"
+        return f"{_BODY} widens to {side[deep].max() / amax:.2g} times its rim (a terrace)"
     if np.any(side > tol.CAP_TUBE_BULGE * amax + flare):
-        return f"the body behind it bulges to {side.max() / amax:.2g} times its rim"
+        return f"{_BODY} bulges to {side.max() / amax:.2g} times its rim"
     return fids, loop, center, n_out

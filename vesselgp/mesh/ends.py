@@ -101,10 +101,15 @@ class FlatPatch(NamedTuple):
         The cap it would be (kind ``"cap"``: its rim, faces, centre, outward direction, radius).
     reason : str
         Why it is not a cap.
+    walled : bool
+        Whether only the body behind it failed the cap test (it widens or bulges there: a vessel cut next to a
+        junction): the wall meets its whole rim (``tolerances.CAP_RIM_WALLED_FRACTION`` of it) and it is no facet
+        (``CAP_SUSPECT_FACES`` faces or more).
     """
 
     end: VesselEnd
     reason: str
+    walled: bool = False
 
 
 def vessel_ends(V, F=None, *, topology=None):
@@ -202,14 +207,14 @@ def found_ends(V, F, topo, sacs=None, flat_patches=None):
         ends.append(_make_end(body, "cap", loop, np.unique(F[fids]), center, n, scale, faces=fids))
     ends += _rounded_ends(V, topo, (N, A), ends, graph, h, scale, body, [] if sacs is None else sacs)
     narrowest = min(e.radius for e in ends)
-    for fids, loop, center, n, why in refused:
+    for fids, loop, center, n, why, walled in refused:
         patch = _make_end(body, "cap", loop, np.unique(F[fids]), center, n, scale, faces=fids)
         if patch.radius < tol.CAP_SUSPECT_RADIUS * narrowest:
             continue  # a facet, a terrace: smaller than any vessel here
         log.info("a flat patch of %d faces (radius %.3g) at %s is not a cap: %s", len(fids), patch.radius,
                  format_point(center, scale), why)
         if flat_patches is not None:
-            flat_patches.append(FlatPatch(patch, why))
+            flat_patches.append(FlatPatch(patch, why, walled))
     ends.sort(key=cmp_to_key(_compare_ends))
     log.info("found %d vessel ends: %s", len(ends), end_listing(ends))
     return tuple(ends)
