@@ -120,8 +120,8 @@ MUTATIONS = {
     ),
     "walled_patch_reached_not_a_missed_cap": (
         "vesselgp/tree.py",
-        "              if (not r or p.walled and _across_the_lines(p.end, lines.points)) and _spans_its_lumen(pm, p.end)]",
-        "              if (not r) and _spans_its_lumen(pm, p.end)]",
+        "              if (p.walled or not r) and _spans_its_lumen(pm, p.end, tol.MISSED_CAP_SPAN_MAX if r else np.inf)]",
+        "              if (not r) and _spans_its_lumen(pm, p.end, tol.MISSED_CAP_SPAN_MAX if r else np.inf)]",
         ["tests/test_oblique_caps.py::test_a_real_arch_clipped_next_to_its_branches_keeps_the_cut_end"],
     ),
     "walled_patch_any_size": (
@@ -130,11 +130,11 @@ MUTATIONS = {
         "                behind = bool(sign[c]) and cap.startswith(_BODY)",
         ["tests/test_oblique_caps.py::test_a_walled_patch_reached_by_the_lines_is_a_cap_from_its_facet_limit"],
     ),
-    "reached_patch_along_the_lines": (
+    "reached_patch_any_span": (
         "vesselgp/tree.py",
-        "    return angle <= tol.MISSED_CAP_ACROSS",
-        "    return True",
-        ["tests/test_oblique_caps.py::test_a_reached_patch_lies_across_the_lumen_at_the_limit"],
+        "_spans_its_lumen(pm, p.end, tol.MISSED_CAP_SPAN_MAX if r else np.inf)]",
+        "_spans_its_lumen(pm, p.end, np.inf)]",
+        ["tests/test_oblique_caps.py::test_a_reached_patch_spans_at_most_its_lumen_at_the_limit"],
     ),
     "oblique_cap_slivers_counted_unwalled": (
         "vesselgp/mesh/_ends_caps.py",

@@ -887,10 +887,9 @@ MISSED_MIN_TUBE = 0.5
 #: A flat patch no centre line reaches is taken for a missed vessel's cap only if its radius is at least this much of
 #: the largest inscribed sphere reaching its centre (a whole cross-section, not a terrace of a wider cap).
 MISSED_CAP_SPAN = 0.5
-#: A flat patch a centre line reaches (the wall meeting its whole rim, its body behind widening: a vessel cut next to a
-#: junction) is a missed cap only if it lies across the lumen: its normal within this angle (radians; 80 degrees) of
-#: the nearest line's tangent. Cuts: 56 and 67 degrees (the 4D-flow arch clipped beside its branches, the aorto-iliac
-#: Y cut obliquely beside its bifurcation); a flat side of a coarse wall: 89 (the XCAT tree remeshed at 1.4 edges).
-MISSED_CAP_ACROSS = 1.396
+#: ... and, when a centre line reaches it (a patch the wall meets all round whose body behind widens: a vessel cut
+#: next to a junction), at most this much: a cross-section spans about its lumen (the 4D-flow arch clipped next to
+#: its branches: 0.83), a flat side of a coarse wall more (the XCAT tree remeshed at 1.4 edges: 2.0 and 2.5).
+MISSED_CAP_SPAN_MAX = 1.5
 #: A tree fit looks for that many missed ends at most, one at a time (its centre lines drawn again each time).
 MISSED_MAX_ENDS = 8

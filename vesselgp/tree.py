@@ -626,8 +626,8 @@ def _with_missed_caps(pm, root):
     arch whose ascending aorta's cap was missed). So does a patch the wall meets round its whole rim, reached or
     not, whose body behind failed the cap test (a vessel cut and capped next to a junction, whose body widens
     into it: the 4D-flow arch clipped through its arch and capped by a fan lost that end, every check passing,
-    the lines to the other ends reaching its cap), if it lies across the lumen (:func:`_across_the_lines`). Either
-    becomes an end (logged at WARNING) if it spans its lumen (:func:`_spans_its_lumen`).
+    the lines to the other ends reaching its cap). Either becomes an end (logged at WARNING) if it spans its
+    lumen (:func:`_spans_its_lumen`).
     """
     if not pm.flat_patches:
         return pm
@@ -635,7 +635,7 @@ def _with_missed_caps(pm, root):
     C, R = np.vstack(lines.points), (1.0 + tol.CHECK_COVER_TOLERANCE) * np.concatenate(lines.radius)
     reached = [bool(within_balls(p.end.center[None], C, R)[0]) for p in pm.flat_patches]
     missed = [(p.end, r) for p, r in zip(pm.flat_patches, reached)
-              if (not r or p.walled and _across_the_lines(p.end, lines.points)) and _spans_its_lumen(pm, p.end)]
+              if (p.walled or not r) and _spans_its_lumen(pm, p.end, tol.MISSED_CAP_SPAN_MAX if r else np.inf)]
     if not missed:
         return pm
     for k, (p, r) in enumerate(missed):
@@ -697,32 +697,15 @@ def _warn_if_the_root_may_be_a_sac(pm, root):
                     root, e.describe(), tube, " ".join(map(str, others)))
 
 
-def _across_the_lines(cap, lines):
-    """Whether a flat patch lies across the lumen: its normal within ``tolerances.MISSED_CAP_ACROSS`` of the tangent of
-    the nearest centre line (of ``lines``, a list of (k, 3) polylines) at its nearest point. A cut lies across its
-    vessel (the 4D-flow arch clipped next to its branches: 56 degrees; the aorto-iliac Y cut obliquely next to its
-    bifurcation: 67), a flat side of a coarse wall along it (the XCAT tree remeshed at 1.4 edges: 89)."""
-    best, angle = np.inf, np.pi / 2
-    for P in lines:
-        if len(P) < 2:
-            continue
-        d = np.linalg.norm(P - cap.center, axis=1)
-        k = int(np.argmin(d))
-        t = P[min(k + 1, len(P) - 1)] - P[max(k - 1, 0)]
-        if d[k] < best and np.linalg.norm(t) > 0:
-            best = d[k]
-            angle = float(np.arccos(min(1.0, abs(t @ cap.direction) / np.linalg.norm(t))))
-    log.debug("the flat patch %s lies %.4g degrees off the centre line's tangent", cap.describe(), np.degrees(angle))
-    return angle <= tol.MISSED_CAP_ACROSS
-
-
 def _spans_its_lumen(pm, cap, most=np.inf):
     """Whether a flat patch is as wide as the lumen behind it (a whole cross-section, a vessel's cap): its radius at
     least ``tolerances.MISSED_CAP_SPAN`` of the largest inscribed sphere (inside Voronoi vertex) that reaches its
-    centre, scaled as the lines' spheres are (and at most ``most`` of it). The flat terraces that marching cubes
+    centre, scaled as the lines' spheres are, and at most ``most`` of it. The flat terraces that marching cubes
     leaves on a wide cap whose rim it rounded off are not (the gmsh arch made again at a fifth of its least radius:
     three patches of radius 2.8-3.7 on its ascending aorta's cap of 15.9, each taken for a missed vessel's cap
-    before); the lumen's own missed end is found instead (:func:`_with_missed_vessels`)."""
+    before); the lumen's own missed end is found instead (:func:`_with_missed_vessels`). A patch the lines reach is
+    held to ``tolerances.MISSED_CAP_SPAN_MAX`` too: a flat side of a coarse wall is wider than the lumen behind it
+    (the XCAT tree remeshed at 1.4 edges: 2.0 and 2.5 times it)."""
     cc, R, inside, _ = pm.voronoi.graph(False)
     ids = np.flatnonzero(inside)
     reach = (1.0 + tol.CHECK_COVER_TOLERANCE) * R[ids]
