@@ -180,12 +180,8 @@ def _row(path, vmtk=None, variant=None):
         return [name, "-", "refused", "-", "-", "-", "-", "-", "-", f"{time.perf_counter() - t:.2f}", "-",
                 str(e).split(";")[0][:70]]
     dt = time.perf_counter() - t
-    import pymeshlab  # the winding's orientation from pymeshlab, not from vesselgp's own mending
-    ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(V, F))
-    ms.meshing_re_orient_faces_coherently()
-    Fo = ms.current_mesh().face_matrix().astype(np.int64)
-    Vc, Fc = closed_by_fans(ms.current_mesh().vertex_matrix(), Fo, mesh_topology(Fo, len(V)).boundary_loops)
+    Fo = _oriented(V, F)  # the winding's orientation from pymeshlab, not from vesselgp's own mending
+    Vc, Fc = closed_by_fans(V, Fo, mesh_topology(Fo, len(V)).boundary_loops)
     inside, clear, n = 0, 0, 0
     for p in tree.paths:
         arc = chord_length(p.dense_points)

@@ -4,8 +4,9 @@ taken for one (a single artery clipped at 55 degrees and capped by a fan was ans
 and refused). Such a cap is judged across the axis of the tube behind it (vesselgp.mesh._ends_caps._oblique_axes)."""
 from __future__ import annotations
 
+import functools
 import logging
-from pathlib import Path
+import re
 
 import numpy as np
 import pytest
@@ -135,7 +136,22 @@ def test_the_tube_behind_an_oblique_cap_must_be_one_tube_at_the_spreads_edge(cap
         assert any(e.kind == "cap" and e.center[2] > LENGTH - 1.0 for e in ends) == cap
 
 
-@needs_real("cardiopinns_aortic-arch-4dflow_capped.stl")
+ARCH = "cardiopinns_aortic-arch-4dflow_capped.stl"
+
+
+@functools.lru_cache(maxsize=None)
+def _arch_clipped(cap=True):
+    """The 4D-flow arch (its faces turned by pymeshlab, as scripts/real_meshes.py turns them) clipped by
+    data_gen/clipped.py's plane pc1@0.35, beside its supra-aortic branches, capped by fans or open: ``(W, G)`` and
+    the plane's ``(normal, point)``."""
+    clip = repo_module("clipped")
+    V, F = vesselgp.read_mesh(REAL / ARCH)[:2]
+    F = repo_module("real_meshes", "scripts")._oriented(V, F)
+    (_, n, c), = [p for p in clip.planes(V, ARCH) if p[0] == "pc1@0.35"]
+    return clip.clipped(V, F, n, c, cap=cap), (n, c)
+
+
+@needs_real(ARCH)
 def test_a_real_arch_clipped_next_to_its_branches_keeps_the_cut_end(caplog):
     """The 4D-flow arch clipped through its arch by data_gen/clipped.py's plane pc1@0.35 (beside its supra-aortic
     branches) and capped by a fan: the cap's rim is met by the wall all round, but the body behind it widens into
@@ -143,21 +159,12 @@ def test_a_real_arch_clipped_next_to_its_branches_keeps_the_cut_end(caplog):
     the end was lost: three ends, every check passing. A flat patch the wall meets round its whole rim and that
     spans its lumen is now taken for the missed cap: four ends, the new one within 0.2 radii of where VMTK's line of
     the arch crosses the plane (0.12 measured), the open clip's end within 0.2 radii of it."""
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-    from real_meshes import _oriented
-
-    clip = repo_module("clipped")
-    name = "cardiopinns_aortic-arch-4dflow_capped.stl"
-    V, F = vesselgp.read_mesh(REAL / name)[:2]
-    F = _oriented(V, F)
-    (_, n, c), = [p for p in clip.planes(V, name) if p[0] == "pc1@0.35"]
+    (W, G), (n, c) = _arch_clipped()
     with caplog.at_level(logging.WARNING, logger="vesselgp.tree"):
-        tree = vesselgp.fit_vessel_tree(*clip.clipped(V, F, n, c))
+        tree = vesselgp.fit_vessel_tree(W, G)
     assert any("the wall meets the whole rim of the flat patch" in r.getMessage() for r in caplog.records)
     crossings = []
-    for P, Rv in vmtk_lines(name):
+    for P, Rv in vmtk_lines(ARCH):
         sd = (P - c) @ n
         for j in np.flatnonzero(np.diff(np.sign(sd))):
             crossings.append((Rv[j], P[j] + sd[j] / (sd[j] - sd[j + 1]) * (P[j + 1] - P[j])))
@@ -166,30 +173,19 @@ def test_a_real_arch_clipped_next_to_its_branches_keeps_the_cut_end(caplog):
     assert len(tree.ends) == 4
     cut = min(tree.ends, key=lambda e: np.linalg.norm(e.center - x))
     assert cut.kind == "cap" and np.linalg.norm(cut.center - x) < 0.2 * r
-    open_ends = vesselgp.vessel_ends(*clip.clipped(V, F, n, c, cap=False))
+    open_ends = vesselgp.vessel_ends(*_arch_clipped(cap=False)[0])
     open_end = min(open_ends, key=lambda e: np.linalg.norm(e.center - x))
     assert open_end.kind == "open" and np.linalg.norm(open_end.center - cut.center) < 0.2 * r
 
 
-@needs_real("cardiopinns_aortic-arch-4dflow_capped.stl")
+@needs_real(ARCH)
 @pytest.mark.parametrize("extra, found", [(0, True), (1, False)])
 def test_a_walled_patch_reached_by_the_lines_is_a_cap_from_its_facet_limit(extra, found, caplog, monkeypatch):
     """CAP_SUSPECT_FACES at its edge for a reached patch the wall meets all round: the arch's cut cap above (its face
     count read from the log) is taken for the missed cap with the limit at that count, not one face above it (a
     single noisy face met by the wall, whose body goes on in front of it, is no cap: the XCAT tree with 0.1 edges
     of noise had five such faces taken for ends and was refused)."""
-    import re
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-    from real_meshes import _oriented
-
-    clip = repo_module("clipped")
-    name = "cardiopinns_aortic-arch-4dflow_capped.stl"
-    V, F = vesselgp.read_mesh(REAL / name)[:2]
-    F = _oriented(V, F)
-    (_, n, c), = [p for p in clip.planes(V, name) if p[0] == "pc1@0.35"]
-    W, G = clip.clipped(V, F, n, c)
+    (W, G), _ = _arch_clipped()
     with caplog.at_level(logging.INFO, logger="vesselgp.mesh.ends"):
         vesselgp.vessel_ends(W, G)
     faces = [int(m) for m in re.findall(r"a flat patch of (\d+) faces \(radius [0-9.]+\) at \S+ \S+ \S+ is not a "
@@ -204,37 +200,21 @@ def test_noisy_facets_met_by_the_wall_are_no_missed_caps():
     """The XCAT coronary tree with each vertex moved along its normal by 0.1 median edges of noise (scripts/
     real_meshes.py --coarser): single faces whose rims the wall meets but whose surface goes on in front of them
     (a step) are no caps, reached or not. It fits with its 11 ends, each within its radius of the original's."""
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-    from real_meshes import _coarser
-
     name = "xrayangio_xcat-coronary-tree_open.stl"
     V, F = vesselgp.read_mesh(REAL / name)[:2]
-    tree = vesselgp.fit_vessel_tree(*_coarser(V, F, "noise", 0.1))
+    tree = vesselgp.fit_vessel_tree(*repo_module("real_meshes", "scripts")._coarser(V, F, "noise", 0.1))
     truth = vesselgp.vessel_ends(V, F)
     assert len(tree.ends) == len(truth) == 11
     for e in truth:
         assert min(np.linalg.norm(x.center - e.center) for x in tree.ends) < e.radius
 
 
-@needs_real("cardiopinns_aortic-arch-4dflow_capped.stl")
+@needs_real(ARCH)
 @pytest.mark.parametrize("factor, found", [(1.01, True), (0.99, False)])
 def test_a_reached_patch_spans_at_most_its_lumen_at_the_limit(factor, found, caplog, monkeypatch):
     """MISSED_CAP_SPAN_MAX at its edge: the arch's cut cap above spans 0.83 of the largest sphere reaching its
     centre (read from the log); with the limit 1 % above that it is taken for the missed cap, 1 % below it not."""
-    import re
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-    from real_meshes import _oriented
-
-    clip = repo_module("clipped")
-    name = "cardiopinns_aortic-arch-4dflow_capped.stl"
-    V, F = vesselgp.read_mesh(REAL / name)[:2]
-    F = _oriented(V, F)
-    (_, n, c), = [p for p in clip.planes(V, name) if p[0] == "pc1@0.35"]
-    W, G = clip.clipped(V, F, n, c)
+    (W, G), _ = _arch_clipped()
     with caplog.at_level(logging.DEBUG, logger="vesselgp.tree"):
         vesselgp.fit_vessel_tree(W, G)
     (span,) = [float(m) for m in re.findall(r"cap r=16\.3 at \([^)]*\) spans ([0-9.]+) of the lumen", caplog.text)]

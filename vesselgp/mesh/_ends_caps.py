@@ -285,22 +285,21 @@ def _oblique_axes(V, F, N, A, cands, order, starts, counts, mhat, graph):
     tube, has its axis along its normal and is judged as before.
     """
     out = {}
+    G = graph()
     for c, s0, k in zip(cands, starts, counts):
-        fids = order[s0:s0 + k]
-        ids = np.unique(F[fids])
+        ids = np.unique(F[order[s0:s0 + k]])
         n = mhat[c]
-        # the wall's side: where the surface near the patch lies (the rim test's third vertices)
-        G = graph()
-        P = V[ids]
-        amax = float(np.linalg.norm(P - P.mean(axis=0) - np.outer((P - P.mean(axis=0)) @ n, n), axis=1).max())
+        X = V[ids] - V[ids].mean(axis=0)
+        amax = float(np.linalg.norm(X - np.outer(X @ n, n), axis=1).max())
         if not amax > 0:
             continue
         g = dijkstra(G, indices=ids, min_only=True, limit=tol.CAP_OBLIQUE_REACH * amax)
-        near = np.isfinite(g)
-        near[ids] = False
-        h = (V[near] - P.mean(axis=0)) @ n
+        g[ids] = np.inf
+        near = np.flatnonzero(np.isfinite(g))
+        h = (V[near] - V[ids].mean(axis=0)) @ n
         side = -1.0 if np.sum(h < 0) >= np.sum(h > 0) else 1.0  # the wall lies on this side of n
-        behind = near & (((V - P.mean(axis=0)) @ n) * side > 0)
+        behind = np.zeros(len(V), bool)
+        behind[near[h * side > 0]] = True
         faces = behind[F].all(axis=1) & (A > 0)  # (a zero-area face has no normal)
         if np.count_nonzero(faces) < 3:
             continue
@@ -309,7 +308,7 @@ def _oblique_axes(V, F, N, A, cands, order, starts, counts, mhat, graph):
         angle = float(np.arccos(np.clip(axis @ (-side * n), -1.0, 1.0)))
         spread = float(w[0] / max(w[1], 1e-300))
         log.debug("the wall behind the flat patch at %s: axis %.4g degrees off its normal, normals' spread %.6g",
-                  np.round(P.mean(axis=0), 3).tolist(), np.degrees(angle), spread)
+                  np.round(V[ids].mean(axis=0), 3).tolist(), np.degrees(angle), spread)
         if spread <= tol.ENDS_TIP_AXIS_SPREAD:  # else not the wall of one tube
             out[int(c)] = (axis, angle)
     return out
