@@ -32,6 +32,43 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    # --- issue #48 (2026-12-07, night): a tapering tube's Newton step (vesselgp.taper) and a cone's refinement
+    "taper_step_sign_flipped": (
+        "vesselgp/taper.py",
+        "    a = radii * radius_slope(radii, h) / (2.0 * h)",
+        "    a = -radii * radius_slope(radii, h) / (2.0 * h)",
+        ["tests/test_taper.py"],
+    ),
+    "taper_step_off": (
+        "vesselgp/fit.py",
+        "            corr = taper_step(corr, radii, axes[b].node_frames(), axes[b].length)",
+        "            corr = corr",
+        ["tests/test_taper.py"],
+    ),
+    "taper_step_at_junction_sides": (
+        "vesselgp/fit.py",
+        "        if all(p.pin):  # a tapering tube's Newton step",
+        "        if True:  # a tapering tube's Newton step",
+        ["tests/test_taper.py::test_a_junction_side_keeps_the_plain_step"],
+    ),
+    "taper_slope_from_neighbours_only": (
+        "vesselgp/taper.py",
+        "    half = np.maximum((tol.GC_TAPER_WINDOW if window is None else window) * radii, 1.5 * h)",
+        "    half = np.full(K, 1.5 * h)",
+        ["tests/test_taper.py"],
+    ),
+    "refine_cone_rule_off": (
+        "vesselgp/fit.py",
+        "        if r is not None and r.max() > tol.GC_REFINE_TAPER * r.min():",
+        "        if False:",
+        ["tests/test_taper.py"],
+    ),
+    "refine_cone_no_floor": (
+        "vesselgp/fit.py",
+        "            narrow = max(float(r.min()), tol.GC_REFINE_NARROW_FLOOR * float(r.mean()))",
+        "            narrow = float(r.min())",
+        ["tests/test_taper.py"],
+    ),
     # --- issue #47 (2026-12-07, evening): vessels cut obliquely and capped flat (vesselgp.mesh._ends_caps)
     "oblique_cap_rim_not_judged_across_its_axis": (
         "vesselgp/mesh/_ends_caps.py",

@@ -84,14 +84,15 @@ def nearest_sample(values, samples, X):
 @needs_real(*{c.mesh for c in rs.CASES.values()})
 def test_fitted_radius_is_the_swept_radius(fitted):
     """The fitted perimeter-mean radius against the swept one, within 1 % over the interior (3 % on the
-    ``arch_branch`` cone, whose fit stops unconverged 2.1 % off: docs/accuracy.md)."""
+    ``arch_branch`` cone, 2.1 % off where its taper ends: Eq. 4 smooths the radius on the fit's 12 nodes,
+    docs/accuracy.md)."""
     case, ves, gc = fitted
     t = ves.truth
     st = t.s * t.length
     inner = (st > acc.EDGE * t.radii[0]) & (st < t.length - acc.EDGE * t.radii[-1])
     s_fit = np.clip(nearest_sample(gc.dense_s, gc.dense_points, t.centers[inner]), 0, 1)
     rel = np.abs(gc.radius_at(s_fit) / t.radii[inner] - 1)
-    bound = 0.03 if case == "arch_branch" else 0.01  # docs: the unconverged cone's radius is 2.1 % off
+    bound = 0.03 if case == "arch_branch" else 0.01  # docs: the cone's radius is 2.1 % off
     assert rel.max() <= bound, f"{case}: radius off by {rel.max():.3%}"
 
 
@@ -105,7 +106,7 @@ def test_cases_the_fit_cannot_follow_are_refused_not_answered(case):
     try:
         gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
     except vesselgp.VesselError as err:
-        assert "wall" in str(err) or "bends tighter" in str(err)
+        assert any(why in str(err) for why in ("wall", "bends tighter", "leaves the surface"))
         return
     e, inner = acc.axis_errors(ves.truth, gc.dense_points)
     assert e[inner].max() <= 5.0, f"{case} answered with an axis {e[inner].max():.1f} % r off its line"

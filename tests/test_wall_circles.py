@@ -257,14 +257,16 @@ def _wall_centre_line(truth):
 def test_a_one_sided_plaque_in_a_helix_is_fitted_again_and_followed(caplog, monkeypatch):
     """The real coronary's anatomy with exact truth: a helix (radius 1.5, 64 points around, clean rings) whose
     wall is pushed in on one side over a short stretch (a plaque: the radius times 1 - 0.4 g(s) cos^2 on one
-    side, 3 % of its length wide), its wall's centre 0.17 radii off the swept line there. The first fit rejects
-    that wall and runs 14 % r from the exact wall's centre line; the check finds it (0.137 r) and the second
-    fit follows it within 6.4 % r (4.2 % measured) and is not named."""
+    side, 5 % of its length wide), its wall's centre 0.17 radii off the swept line there. The first fit rejects
+    that wall and runs 14 % r from the exact wall's centre line; the check finds it (0.142 r) and the second
+    fit follows it within 6 % r (4.0 % measured) and is not named. (At 3 % of its length the first fit now
+    follows within 5.4 % r itself, its check 0.052 r: not fitted again; before the taper's Newton step, issue
+    #48, it rejected the wall there as at 5 %.)"""
     from vesselgp import fit as vfit
     from vesselgp.synthetic import synthetic_vessel
 
     ves = synthetic_vessel("helix", radius=1.5, n_around=64, remesh=False,
-                           bulges=[{"s0": 0.5, "width": 0.03, "amplitude": -0.4, "lobes": 1, "phase": 0.0}])
+                           bulges=[{"s0": 0.5, "width": 0.05, "amplitude": -0.4, "lobes": 1, "phase": 0.0}])
     t = ves.truth
     C = _wall_centre_line(t)
     inner = (t.s > 0.1) & (t.s < 0.9)
@@ -282,7 +284,7 @@ def test_a_one_sided_plaque_in_a_helix_is_fitted_again_and_followed(caplog, monk
         gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
     assert "fitted again with the wall on its own circles" in caplog.text
     assert "off the centre of its wall" not in caplog.text
-    assert worst(gc) <= 1.5 * 0.042
+    assert worst(gc) <= 1.5 * 0.040
 
 
 @needs_real("xra_coronary_single_branch_open.stl")

@@ -60,6 +60,7 @@ from .mesh import select_ends
 from .mesh._ends_format import format_point
 from .mesh.scale import scale_of
 from .mesh.geodesic import GeodesicDistances
+from .taper import taper_step
 from .wall_circles import wall_circles
 from .prepared import CheckedMesh, checked_mesh, prepared_mesh  # noqa: F401 (vesselgp.fit.checked_mesh)
 
@@ -741,15 +742,24 @@ def _refit_nodes(it, lam):
     """The node count :func:`refined` fits a converged state ``it`` again on, or None.
 
     ``GC_REFINE_SPACING`` times as far apart where its final circle fit lowered the weight to
-    ``GC_REFINE_LAMBDA`` of ``lam`` or less; where it kept ``lam`` only for too few vertices per node on a
-    clean wall (``it.sparse``, :func:`sparse_clean_wall`), as many as give each segment ``GC_COARSEN_VERTICES``
-    of them (at least ``GC_MIN_NODES``), if that is fewer than it has and at most ``GC_COARSEN_SPACING`` times
-    as far apart."""
+    ``GC_REFINE_LAMBDA`` of ``lam`` or less, and on a cone (its radii differ more than ``GC_REFINE_TAPER``-fold)
+    at least as many as space them ``GC_REFINE_SPACING`` times half its narrowest radius apart (that radius at
+    least ``GC_REFINE_NARROW_FLOOR`` times its mean): spaced for its mean radius, the narrow part of the 4D-flow
+    arch's supra-aortic trunk (12.9 -> 4.1 mm) had nodes 0.8 of its own radius apart and its fit stayed 0.20 %
+    r off its exact line (0.028 % r on nodes for its narrow part); where it kept ``lam`` only for too few
+    vertices per node on a clean wall (``it.sparse``, :func:`sparse_clean_wall`), as many as give each segment
+    ``GC_COARSEN_VERTICES`` of them (at least ``GC_MIN_NODES``), if that is fewer than it has and at most
+    ``GC_COARSEN_SPACING`` times as far apart."""
     if not it.converged or it.lam is None:
         return None
     K = len(it.nodes)
     if it.lam <= tol.GC_REFINE_LAMBDA * lam:
-        return int(round((K - 1) / tol.GC_REFINE_SPACING)) + 1
+        K2 = int(round((K - 1) / tol.GC_REFINE_SPACING))
+        r = it.radii
+        if r is not None and r.max() > tol.GC_REFINE_TAPER * r.min():  # a cone: nodes for its narrow part
+            narrow = max(float(r.min()), tol.GC_REFINE_NARROW_FLOOR * float(r.mean()))
+            K2 = max(K2, int(np.ceil(_chords(it.nodes)[-1] / (tol.GC_REFINE_SPACING * tol.GC_NODE_SPACING * narrow))))
+        return K2 + 1
     if it.sparse is not None:
         K2 = max(tol.GC_MIN_NODES, int(it.sparse // tol.GC_COARSEN_VERTICES) + 1)
         return K2 if K2 < K and (K - 1) <= tol.GC_COARSEN_SPACING * (K2 - 1) else None
@@ -1083,6 +1093,8 @@ def _iterate(stack, its, windows, lam, mu, stop_singular=False, polish=None):
         if radii is None:
             out.append(replace(it, converged=False, step=float("inf"), axis=axes[b], singular=True))
             continue
+        if all(p.pin):  # a tapering tube's Newton step (not at a junction's side: the wall there is not a tube's)
+            corr = taper_step(corr, radii, axes[b].node_frames(), axes[b].length)
         out.append(replace(_advance(it, axes[b], corr, radii, s[r], w[r], jac[r], inside[b], p.rscale), lam=lam_b))
     return out
 

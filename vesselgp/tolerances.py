@@ -71,6 +71,10 @@ GC_LAMBDA_FLOOR = 0.05
 #: iterated again from its axis on nodes GC_REFINE_SPACING times as far apart (vesselgp.fit.refined, issue #48).
 GC_REFINE_LAMBDA = 0.5
 GC_REFINE_SPACING = 0.8
+#: ... and where its radii differ more than GC_REFINE_TAPER-fold (a cone), on nodes spaced for its narrowest
+#: radius, but never for less than GC_REFINE_NARROW_FLOOR times its mean (vesselgp.fit._refit_nodes).
+GC_REFINE_TAPER = 2.5
+GC_REFINE_NARROW_FLOOR = 0.5
 #: ... and is given up (the first fit kept) when its step grows this many iterations in a row once its outlier
 #: set is fixed (a fixed point that settles contracts; on the swept real lines a step grew at most once in a row).
 GC_REFINE_GROWING = 3
@@ -89,6 +93,9 @@ GC_REFINE_FREE_END = 3.0
 GC_COARSEN_VERTICES = 22
 #: ... when that spaces its nodes at most this many times as far apart (a wall much sparser keeps its fit).
 GC_COARSEN_SPACING = 1.5
+#: Eq. 3's step on a tapering tube is a Newton step (vesselgp.taper): the radius's slope at a node is the
+#: least-squares line through the nodes within this many local radii of it.
+GC_TAPER_WINDOW = 1.0
 #: Robust reweighting: a vertex whose distance to the axis departs from the
 #: local radius by more than this many robust standard deviations gets weight 0
 #: (side branches, cap remnants).
