@@ -49,7 +49,8 @@ MUTATIONS = {
         "vesselgp/fit.py",
         "        if all(p.pin):  # a tapering tube's Newton step",
         "        if True:  # a tapering tube's Newton step",
-        ["tests/test_taper.py::test_a_junction_side_keeps_the_plain_step"],
+        ["tests/test_taper.py::test_a_junction_side_keeps_the_plain_step",
+         "tests/test_taper.py::test_a_swept_network_trees_junction_sides_keep_the_plain_step"],
     ),
     "taper_slope_from_neighbours_only": (
         "vesselgp/taper.py",
