@@ -23,6 +23,9 @@ fixed points directly, with three changes a geometry-processing user expects:
   the axis (bending), not the first: the first-order term pulls an arc of
   curvature ``kappa`` inwards by ``lambda kappa``, the second-order one leaves
   arcs and helices unbiased. Eq. 4's ``mu`` term is used as written.
+* **A tapering tube's Newton step.** On a cone a section tilted off the true normal plane is not centred on
+  the true axis, and Eq. 3's plain step oscillates once the taper's gain ``r |r'| / h`` passes 1; an axis
+  pinned at both ends takes the Newton step of the linearised fixed point instead (:mod:`vesselgp.taper`).
 
 Vertices that are not on the tubular wall (cap faces, side branches, the far
 side of a bifurcation) are removed from the data by robust reweighting against
@@ -1053,7 +1056,8 @@ class _ProblemStack:
 def _iterate(stack, its, windows, lam, mu, stop_singular=False, polish=None):
     """One outer iteration of every problem on ``stack``: project (s_i), circle-fit correction
     (Eq. 3), radius (Eq. 5), resample. ``windows`` (one per problem) on the first iteration. With
-    ``stop_singular`` a problem whose system is singular is returned unchanged, marked singular."""
+    ``stop_singular`` a problem whose system is singular is returned unchanged, marked singular. A problem pinned
+    at both ends takes Eq. 3's correction as the taper's Newton step (:func:`vesselgp.taper.taper_step`)."""
     probs = stack.problems
     axes = [Axis(it.nodes, p.initial_normal, carry=it.axis) for it, p in zip(its, probs)]
     ax = AxisStack(axes, stack.PT, stack.counts)
