@@ -607,8 +607,8 @@ def _on_its_wall(first, it, data, checking, *, L0, lam, mu, max_iter):
         raise NotTubularError(
             f"the fitted axis runs {a.offset:.2g} radii (+- {a.se:.2g}) off the centre of its wall at "
             f"{format_point(a.point, pm.winding.scale)} (s = {a.s:.3f}), and the wall is too sparse to fit again "
-            f"(at most {tol.GC_LAMBDA_VERTICES} vertices per axis segment): remesh it finer (vesselgp.clean_mesh "
-            "with a smaller target edge) or fit it on fewer nodes (n_nodes)")
+            f"(at most {tol.GC_LAMBDA_VERTICES} vertices per axis segment): remesh it finer (isotropically, e.g. "
+            "pymeshlab's meshing_isotropic_explicit_remeshing with a target edge under a third of its radius)")
     kept = first  # a stenosis the first fit's smoothed radius lagged behind: fitted again
     again = fixed_point(it.nodes, it.s, V[sub], area[sub], end_region[sub], rscale, L0, lam=lam, mu=mu,
                         max_iter=max_iter, initial_normal=normal, rescue=True)
@@ -624,7 +624,15 @@ def _on_its_wall(first, it, data, checking, *, L0, lam, mu, max_iter):
         log.info("the axis ran %.2g radii off its wall's centre; fitted again with the wall on its own circles "
                  "taken back: %.2g", a.offset, b.offset)
         kept = again
-    check_centre(kept.checks.off_centre, pm.winding.scale)
+    k = kept.checks.off_centre
+    if k.offset - tol.CHECK_CENTRE_SIGMAS * k.se > tol.CHECK_CENTRE_REFUSE:
+        raise NotTubularError(
+            f"the fitted axis runs {k.offset:.2g} radii (+- {k.se:.2g}) off the centre of its wall at "
+            f"{format_point(k.point, pm.winding.scale)} (s = {k.s:.3f}), also fitted again with its wall there taken "
+            "back: the wall does not give an axis there (too sparse for its bend, or far from round); remesh it "
+            "finer (isotropically, e.g. pymeshlab's meshing_isotropic_explicit_remeshing with a target edge under a "
+            "third of its radius)")
+    check_centre(k, pm.winding.scale)
     return kept
 
 
