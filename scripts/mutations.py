@@ -1865,8 +1865,8 @@ MUTATIONS = {
     ),
     "refinement_on_the_same_nodes": (
         "vesselgp/fit.py",
-        "        return int(round((K - 1) / tol.GC_REFINE_SPACING)) + 1\n",
-        "        return K\n",
+        "        K2 = int(round((K - 1) / tol.GC_REFINE_SPACING))\n",
+        "        K2 = K - 1\n",
         ["tests/test_real_shapes.py", "tests/test_refined.py"],
     ),
     "refinement_pull_gate_ignored": (

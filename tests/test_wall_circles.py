@@ -167,7 +167,7 @@ def test_the_remeshed_thin_line_is_refused_where_its_exact_line_is_off():
     import re
 
     ves = rs.case_vessel("xcat_thin", remesh=True)
-    with pytest.raises(vesselgp.NotTubularError, match="off the centre of its wall.*too sparse") as err:
+    with pytest.raises(vesselgp.NotTubularError, match="off the centre of its wall.*too sparse to fit again") as err:
         vesselgp.fit_generalized_cylinder(ves.V, ves.F)
     m = re.search(r"runs ([0-9.]+) radii .* at \(([-0-9.e]+), ([-0-9.e]+), ([-0-9.e]+)\) \(s = ([0-9.]+)\)", str(err.value))
     offset, point, s = float(m.group(1)), np.array([float(m.group(k)) for k in (2, 3, 4)]), float(m.group(5))
