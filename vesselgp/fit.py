@@ -584,6 +584,9 @@ def _cylinder_of(it, V, sub, topo, end_region, area, mu, lam, end_ids, initial_n
     return cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids, rescue=rescue)
 
 
+#: what the refusals of an axis off its wall's centre advise (fewer nodes answered such walls wrong: issue #48)
+_REMESH_FINER = ("remesh it finer (isotropically, e.g. pymeshlab's meshing_isotropic_explicit_remeshing with a target "
+                 "edge under a third of its radius)")
 _off_its_wall = off_its_wall  # the checks' warning decides a second fit (a module name: tests hold it to the edge)
 
 
@@ -607,8 +610,7 @@ def _on_its_wall(first, it, data, checking, *, L0, lam, mu, max_iter):
         raise NotTubularError(
             f"the fitted axis runs {a.offset:.2g} radii (+- {a.se:.2g}) off the centre of its wall at "
             f"{format_point(a.point, pm.winding.scale)} (s = {a.s:.3f}), and the wall is too sparse to fit again "
-            f"(at most {tol.GC_LAMBDA_VERTICES} vertices per axis segment): remesh it finer (isotropically, e.g. "
-            "pymeshlab's meshing_isotropic_explicit_remeshing with a target edge under a third of its radius)")
+            f"(at most {tol.GC_LAMBDA_VERTICES} vertices per axis segment): {_REMESH_FINER}")
     kept = first  # a stenosis the first fit's smoothed radius lagged behind: fitted again
     again = fixed_point(it.nodes, it.s, V[sub], area[sub], end_region[sub], rscale, L0, lam=lam, mu=mu,
                         max_iter=max_iter, initial_normal=normal, rescue=True)
@@ -629,9 +631,7 @@ def _on_its_wall(first, it, data, checking, *, L0, lam, mu, max_iter):
         raise NotTubularError(
             f"the fitted axis runs {k.offset:.2g} radii (+- {k.se:.2g}) off the centre of its wall at "
             f"{format_point(k.point, pm.winding.scale)} (s = {k.s:.3f}), also fitted again with its wall there taken "
-            "back: the wall does not give an axis there (too sparse for its bend, or far from round); remesh it "
-            "finer (isotropically, e.g. pymeshlab's meshing_isotropic_explicit_remeshing with a target edge under a "
-            "third of its radius)")
+            f"back: the wall does not give an axis there (too sparse for its bend, or far from round); {_REMESH_FINER}")
     check_centre(k, pm.winding.scale)
     return kept
 
@@ -769,7 +769,8 @@ def _refit_nodes(it, lam):
         r = it.radii
         if r is not None and r.max() > tol.GC_REFINE_TAPER * r.min():  # a cone: nodes for its narrow part
             narrow = max(float(r.min()), tol.GC_REFINE_NARROW_FLOOR * float(r.mean()))
-            K2 = max(K2, int(np.ceil(_chords(it.nodes)[-1] / (tol.GC_REFINE_SPACING * tol.GC_NODE_SPACING * narrow))))
+            spacing = tol.GC_REFINE_SPACING * tol.GC_NODE_SPACING * narrow
+            K2 = max(K2, int(np.ceil(_chords(it.nodes)[-1] / spacing)))
         return K2 + 1
     if it.sparse is not None:
         K2 = max(tol.GC_MIN_NODES, int(it.sparse // tol.GC_COARSEN_VERTICES) + 1)

@@ -711,13 +711,13 @@ def _spans_its_lumen(pm, cap, most=np.inf):
     reach = (1.0 + tol.CHECK_COVER_TOLERANCE) * R[ids]
     near = np.linalg.norm(cc[ids] - cap.center, axis=1) <= reach
     behind = float(R[ids][near].max()) if near.any() else 0.0
-    log.debug("the flat patch %s spans %.6g of the lumen's largest sphere behind it", cap.describe(),
-              cap.radius / max(behind, 1e-300))
-    if tol.MISSED_CAP_SPAN * behind <= cap.radius <= most * behind:
+    span = cap.radius / behind if behind > 0 else np.inf  # no sphere reaches it: nothing behind is wider
+    log.debug("the flat patch %s spans %.6g of the lumen's largest sphere behind it", cap.describe(), span)
+    if tol.MISSED_CAP_SPAN <= span <= most:
         return True
-    log.info("the flat patch %s spans %.4g of the lumen's largest sphere behind it (radius "
-             "%.4g): not a whole cross-section, not taken for a cap", cap.describe(), cap.radius / max(behind, 1e-300),
-             behind)
+    log.info("the flat patch %s spans %.4g of the lumen's largest sphere behind it (radius %.4g): %s, not taken for a "
+             "cap", cap.describe(), span, behind,
+             "not a whole cross-section" if span < tol.MISSED_CAP_SPAN else "wider than the lumen (a flat side)")
     return False
 
 
