@@ -32,6 +32,49 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    # --- issue #48 (2026-12-07, late): a sparse wall's two fits (vesselgp.fit._sparse_fit, pull=False)
+    "sparse_pull_kept": (
+        "vesselgp/axis.py",
+        "    if pull:\n        np.add.at(rhs,",
+        "    if True:\n        np.add.at(rhs,",
+        ["tests/test_sparse_wall.py"],
+    ),
+    "sparse_route_off": (
+        "vesselgp/fit.py",
+        "    if default_nodes and np.count_nonzero((areas > 0) & ~ends_s) < tol.GC_SPARSE_VERTICES * (len(nodes) - 1):",
+        "    if False:",
+        ["tests/test_sparse_wall.py", "tests/test_real_shapes.py"],
+    ),
+    "sparse_route_at_or_below": (
+        "vesselgp/fit.py",
+        "    if default_nodes and np.count_nonzero((areas > 0) & ~ends_s) < tol.GC_SPARSE_VERTICES * (len(nodes) - 1):",
+        "    if default_nodes and np.count_nonzero((areas > 0) & ~ends_s) <= tol.GC_SPARSE_VERTICES * (len(nodes) - 1):",
+        ["tests/test_sparse_wall.py::test_the_sparse_route_at_its_edge"],
+    ),
+    "sparse_route_for_given_nodes": (
+        "vesselgp/fit.py",
+        "    if default_nodes and np.count_nonzero((areas > 0) & ~ends_s)",
+        "    if np.count_nonzero((areas > 0) & ~ends_s)",
+        ["tests/test_sparse_wall.py::test_given_nodes_take_one_fit"],
+    ),
+    "sparse_route_ignores_scatter": (
+        "vesselgp/fit.py",
+        "    if it.sparse is None:\n        return None\n",
+        "    if not it.converged:\n        return None\n",
+        ["tests/test_sparse_wall.py::test_a_sparse_wall_that_is_not_round_takes_one_fit", "tests/test_fit.py"],
+    ),
+    "sparse_first_fit_on_default_nodes": (
+        "vesselgp/fit.py",
+        "    first = nodes if k1 == K else _resample_arclength(nodes, k1)",
+        "    first = nodes",
+        ["tests/test_sparse_wall.py", "tests/test_real_shapes.py"],
+    ),
+    "sparse_second_fit_pulled": (
+        "vesselgp/fit.py",
+        "                       lam=lam * tol.GC_LAMBDA_FLOOR, mu=mu, max_iter=max_iter, initial_normal=initial_normal,\n                       pull=False)",
+        "                       lam=lam * tol.GC_LAMBDA_FLOOR, mu=mu, max_iter=max_iter, initial_normal=initial_normal,\n                       pull=True)",
+        ["tests/test_sparse_wall.py", "tests/test_real_shapes.py"],
+    ),
     # --- issue #48 (2026-12-07, night): a tapering tube's Newton step (vesselgp.taper) and a cone's refinement
     "taper_step_sign_flipped": (
         "vesselgp/taper.py",

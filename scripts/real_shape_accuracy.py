@@ -12,7 +12,9 @@ measures, away from the open ends (``EDGE`` radii of each end cut from it):
 - ``mean`` and ``worst``: distance from the exact centre line (its 2001 samples) to the fitted axis polyline
   (``dense_points``), in % of the local radius;
 - ``over5``: samples of the exact centre line farther than 5 % r from the axis (a stretch with no axis);
-- ``bend``: the worst of those where curvature x radius >= 0.3 (tight bends).
+- ``bend``: the worst of those where curvature x radius >= 0.3 (tight bends);
+- ``sections``: mean and worst distance from the exact centres of the sections the mesh carries (each vertex's own
+  section: a ring mesh's ring centres) to the axis, % r (:func:`section_errors`).
 
 With ``--vmtk`` the same is measured for VMTK 1.5.2's centre line between the two end centres
 (``shared/peers/vmtk/vmtk_centerline.py``, qhull Delaunay); VMTK's line stops short of open ends, so only the
@@ -58,6 +60,19 @@ def axis_errors(truth, points):
     inner = (st > EDGE * truth.radii[0]) & (st < L - EDGE * truth.radii[-1])
     e = 100.0 * _polyline_distance(truth.centers, points) / truth.radii
     return e, inner
+
+
+def section_errors(truth, points):
+    """The exact centres of the sections the mesh carries (each vertex's own section, ``truth.vertex_s``: the ring
+    centres of a ring mesh, issue #48's exact truth) -> polyline ``points``, in % of the local radius, and the mask
+    of those measured (``EDGE`` radii of each end cut). Between the rings of a sparse ring mesh the wall is flat
+    facets, not the swept spline: a bend of the spline sharper than the rings' spacing is not in the mesh."""
+    s = np.unique(truth.vertex_s[~truth.vertex_on_cap])
+    C, _ = truth.axis_at(s)
+    r = np.interp(s, truth.s, truth.radii)
+    st, L = s * truth.length, truth.length
+    inner = (st > EDGE * truth.radii[0]) & (st < L - EDGE * truth.radii[-1])
+    return 100.0 * _polyline_distance(C, points) / r, inner
 
 
 def tree_axis_errors(truth, tree):
@@ -127,6 +142,8 @@ def measure(name, vmtk=None, remesh=False):
         row["fit_s"], row["iterations"] = round(time.perf_counter() - t0, 2), gc.iterations
         e, _ = axis_errors(t, gc.dense_points)
         row["vesselgp"] = summary(e, inner, kr)
+        es, ins = section_errors(t, gc.dense_points)
+        row["vesselgp"]["sections"] = [round(float(es[ins].mean()), 4), round(float(es[ins].max()), 3)]
     if vmtk:
         P, dt = run_vmtk(vmtk, ves.V, ves.F, t)
         ev, _ = axis_errors(t, P)
@@ -138,6 +155,10 @@ def measure(name, vmtk=None, remesh=False):
         span = np.zeros(len(ev), bool)
         span[lo:hi + 1] = True
         row["vmtk"] = summary(ev, inner & span, kr)
+        es, ins = section_errors(t, P)
+        _, jv = cKDTree(t.centers).query(t.axis_at(np.unique(t.vertex_s[~t.vertex_on_cap]))[0])
+        ins &= (jv >= lo) & (jv <= hi)
+        row["vmtk"]["sections"] = [round(float(es[ins].mean()), 4), round(float(es[ins].max()), 3)]
         row["vmtk"]["cover"] = round(float((inner & span).sum() / inner.sum()), 3)
         row["vmtk_s"] = round(dt, 2)
     return row

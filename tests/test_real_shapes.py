@@ -26,6 +26,9 @@ _ROWS = table("accuracy.md", "case", "real line", "vertices")
 #: case -> (mean, worst) axis error in % r, from the docs table
 DOCS = {case.strip("`"): (figure(row[4]), figure(row[5])) for case, row in _ROWS.items() if row[4] != "refused"}
 REFUSED = sorted(case.strip("`") for case, row in _ROWS.items() if row[4] == "refused")
+#: case -> (mean, worst) at the sections the mesh carries, % r (the table's "at its sections" column)
+SECTIONS = {case.strip("`"): tuple(figure(x) for x in row[8].split("/")) for case, row in _ROWS.items()
+            if row[4] != "refused"}
 
 
 def _mesh(case):
@@ -47,14 +50,21 @@ def test_the_docs_table_names_every_case():
 @needs_real(*{c.mesh for c in rs.CASES.values()})
 def test_fitted_axis_follows_the_swept_centre_line(fitted):
     """Exact centre line -> fitted axis polyline: mean and worst in % of the local radius within 1.5 x the
-    docs table's figures, and no sample of the centre line farther than 5 % r from the axis."""
+    docs table's figures; at the sections the mesh carries (its rings' centres, issue #48's exact truth) within
+    1.5 x the table's "at its sections" figures, and none farther than 5 % r from the axis (between the rings of
+    an 8-around ring mesh the wall is flat facets: the thin XCAT line turns 12.8 degrees at one ring, and the
+    spline there is 7.5 % r from the axis)."""
     case, ves, gc = fitted
     mean, worst = DOCS[case]
     e, inner = acc.axis_errors(ves.truth, gc.dense_points)
     assert inner.sum() >= 80  # of the 2001 samples of the exact line (90 on the short arch_branch cone)
     assert e[inner].mean() <= FACTOR * mean, f"{case}: mean {e[inner].mean():.4f} % r (figure {mean})"
     assert e[inner].max() <= FACTOR * worst, f"{case}: worst {e[inner].max():.3f} % r (figure {worst})"
-    assert (e[inner] <= 5.0).all()
+    smean, sworst = SECTIONS[case]
+    es, ins = acc.section_errors(ves.truth, gc.dense_points)
+    assert ins.sum() >= 2  # rings measured (2 on the short arch_branch cone, 3 on the carotid line)
+    assert es[ins].mean() <= FACTOR * smean and es[ins].max() <= FACTOR * sworst, (es[ins].mean(), es[ins].max())
+    assert (es[ins] <= 5.0).all()
 
 
 @needs_real(*{c.mesh for c in rs.CASES.values()})
@@ -113,18 +123,17 @@ def test_cases_the_fit_cannot_follow_are_refused_not_answered(case):
 
 
 @needs_real("xrayangio_xcat-coronary-tree_open.stl")
-def test_the_remeshed_thin_line_is_refused_or_followed():
-    """The thin XCAT line swept 8 points around and remeshed isotropically (docs/accuracy.md, "Real shapes"): the
-    fit must follow it within 5 % r everywhere, or refuse it. It was answered 12-31 % r off over 3 mm of a bend
-    (its sparse wall there rejected as outliers; a strict xfail until 2026-12-07); its axis off its wall's centre
-    on a wall too sparse to fit again is now refused."""
+def test_the_remeshed_thin_line_is_followed():
+    """The thin XCAT line swept 8 points around and remeshed isotropically (docs/accuracy.md, "Real shapes"): it
+    was answered 12-31 % r off over 3 mm of a bend (its sparse wall there rejected as outliers; a strict xfail
+    until 2026-12-07), then refused (its axis off its wall's centre on a wall too sparse to fit again). Now a
+    sparse wall's two fits follow it: 0.11 % r mean, 2.4 % r worst from the swept spline (measured; bounds 1.5x),
+    no stretch farther than 5 % r."""
     ves = rs.case_vessel("xcat_thin", remesh=True)
-    try:
-        gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
-    except vesselgp.VesselError:
-        return
+    gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
     e, inner = acc.axis_errors(ves.truth, gc.dense_points)
-    assert e[inner].max() <= 5.0, f"answered with an axis {e[inner].max():.1f} % r off its line"
+    assert e[inner].mean() <= FACTOR * 0.11 and e[inner].max() <= FACTOR * 2.4, (e[inner].mean(), e[inner].max())
+    assert (e[inner] <= 5.0).all()
 
 
 @needs_real("xra_coronary_single_branch_open.stl")

@@ -499,7 +499,7 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
 
 
 def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=True, mirror_ends=False,
-                     singular="raise"):
+                     singular="raise", pull=True):
     """The regularised normal equations of :func:`circle_fit_correction` from its data sums
     ``S`` (K - 1, 21) and ``R`` (K - 1, 6) (:func:`circle_fit_sums`), solved: (K, 3) corrections.
 
@@ -522,7 +522,14 @@ def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=Tru
     axis itself.
 
     ``singular="none"`` returns None where the system is singular (a stretch with no wall
-    around it) instead of raising :class:`NotTubularError`."""
+    around it) instead of raising :class:`NotTubularError`.
+
+    ``pull=False`` puts Eq. 2's weight on the second difference of the correction alone, ``sum_m |D2
+    Delta|^2``, not of the corrected axis: it smooths and damps the step but no longer pulls the axis
+    towards its chord, so the fixed point is the data's own (a correction of zero leaves it). Used on a
+    sparse wall (:func:`vesselgp.fit.fit_generalized_cylinder`), whose rings, fewer than the nodes, leave
+    corrections between them that no data resists: there Eq. 2's pull moved the nodes of an exact axis by
+    5 % of the radius in one step (issue #48). No ghost rows (``mirror_ends`` is ignored)."""
     K = len(centers)
     n3 = 3 * K
     rhs = np.zeros(n3)
@@ -539,13 +546,14 @@ def circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends=Tru
     lw = lam * Wbar
     gram = np.einsum("mai,mbi->mab", Q, Q)[:, _PAIR_A, _PAIR_B]
     red = 3 * np.arange(K - 2)[:, None] + np.array([0, 1, 3, 4, 6, 7])  # unknown index of each of the six
-    np.add.at(rhs, red.ravel(), (-lw * np.einsum("mai,mi->ma", Q, d2c)).ravel())
+    if pull:
+        np.add.at(rhs, red.ravel(), (-lw * np.einsum("mai,mi->ma", Q, d2c)).ravel())
     rows.append(red[:, _PAIR_A].ravel())
     cols.append(red[:, _PAIR_B].ravel())
     vals.append(lw * gram.ravel())
     pin, mirror = _pair(pin_ends), _pair(mirror_ends)
     ghosts = [(i0, i1) for i0, i1, on in ((0, 1, pin[0] and mirror[0]), (K - 1, K - 2, pin[1] and mirror[1]))
-              if on]
+              if on and pull]
     for i0, i1 in ghosts:  # the ghost row g - 2 C_i0 + (C_i1 + Delta_i1): its matrix part
         ids = np.array([3 * i1, 3 * i1 + 1, 3 * i1 + 1])
         G = E[i1] @ E[i1].T

@@ -566,14 +566,31 @@ def fit_generalized_cylinder(
     nodes, s_prev, L0 = _initial_nodes(V, Fg, e0, e1, np.where(end_region, 0.0, area), chord, rscale, n_nodes,
                                        float(wall_area.sum()), None if ftopo is None else ftopo.edges)
     sub = thinned(len(V), tol.GC_MAX_FIT_VERTICES)
-    it = fixed_point(nodes, s_prev[sub], V[sub], area[sub], end_region[sub], rscale, L0,
-                     lam=lam, mu=mu, max_iter=max_iter, initial_normal=initial_normal)
-    if n_ends == 2 and n_nodes is None:  # a clean wall's fixed point again on closer nodes (issue #48)
-        it = _refined(it, V[sub], area[sub], end_region[sub], rscale, L0, lam, mu, max_iter, initial_normal)
+    it = _fitted_axis(nodes, s_prev[sub], V[sub], area[sub], end_region[sub], rscale, L0, lam=lam, mu=mu,
+                      max_iter=max_iter, initial_normal=initial_normal, default_nodes=n_nodes is None,
+                      two_ended=n_ends == 2)
     gc = _checked(_cylinder_of(it, V, sub, topo, end_region, area, mu, lam, end_ids, initial_normal), pm, e0, e1,
                   whole=n_ends == 2 and min(end_ids) >= 0, rscale=rscale, warn_centre=False)
     return _on_its_wall(gc, it, (V, sub, topo, end_region, area, end_ids, initial_normal), (pm, e0, e1, rscale),
                         L0=L0, lam=lam, mu=mu, max_iter=max_iter)
+
+
+def _fitted_axis(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_iter, initial_normal, default_nodes,
+                 two_ended):
+    """The fixed point of a single vessel's data from its initial ``nodes``: on the default nodes (``default_nodes``)
+    a wall with fewer than ``GC_SPARSE_VERTICES`` data vertices per segment takes :func:`_sparse_fit`; any other
+    (or a sparse one that route leaves) one fit, refined on closer nodes when it is clean and has two ends
+    (``two_ended``; :func:`_refined`, issue #48)."""
+    if default_nodes and np.count_nonzero((areas > 0) & ~ends_s) < tol.GC_SPARSE_VERTICES * (len(nodes) - 1):
+        it = _sparse_fit(nodes, s0, Vs, areas, ends_s, rscale, length0, lam=lam, mu=mu, max_iter=max_iter,
+                         initial_normal=initial_normal)
+        if it is not None:
+            return it
+    it = fixed_point(nodes, s0, Vs, areas, ends_s, rscale, length0, lam=lam, mu=mu, max_iter=max_iter,
+                     initial_normal=initial_normal)
+    if two_ended and default_nodes:
+        it = _refined(it, Vs, areas, ends_s, rscale, length0, lam, mu, max_iter, initial_normal)
+    return it
 
 
 def _cylinder_of(it, V, sub, topo, end_region, area, mu, lam, end_ids, initial_normal, rescue=False):
@@ -641,6 +658,42 @@ def _sparse_wall(n_data, K):
     few for the fit again with the wall on its own circles (an 8-around ring's fit then wandered 13-15 % r off
     its line, unconverged), so an axis off its wall's centre there is refused (:func:`_on_its_wall`)."""
     return n_data <= tol.GC_LAMBDA_VERTICES * (K - 1)
+
+
+def _sparse_fit(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_iter, initial_normal):
+    """The fixed point of a sparse wall (fewer than ``GC_SPARSE_VERTICES`` data vertices per segment of the
+    ``nodes``, less than a ring: a thin segmented branch, 6-8 edges around), in two fits (issue #48).
+
+    On such a wall a node often has no ring of its own: the rings fix the corrections only where they lie,
+    and Eq. 2's weight moves the corrections between them towards the chord with nothing to resist it (an
+    exact axis of the X-ray coronary's line swept 8 around moved 5 % of its radius in one step, then ran
+    away; on nodes one per ring Eq. 2 cut its sharpest bend by 0.3-2 radii). So:
+
+    1. a first fit on nodes ``GC_SPARSE_VERTICES`` data vertices per segment apart (every segment holds
+       more than a ring) with Eq. 2's weight at ``GC_LAMBDA_FLOOR`` times ``lam``, from the initial axis;
+    2. where that fit converged on a clean circular wall (:func:`sparse_clean_wall`: its data vertices scatter
+       about their circles by at most ``sqrt(GC_REFINE_LAMBDA)`` times ``GC_LAMBDA_SCATTER``, 0.71 % of the
+       radius, robustly), from its axis the fit on ``nodes``' count
+       with Eq. 2's weight on the step only (``pull=False``, :func:`vesselgp.axis.circle_fit_solve`): its
+       fixed point is the rings' own, the nodes between them carried along smoothly.
+
+    On 6-8-around tubes with exact truth this answers what one fit refused or left 1-3 % r off (a helix
+    swept 6 around: refused, now 0.10 % r worst). A wall that scatters more (a segmented staircase, an
+    elliptic section, whose circles do not pin the centres: without Eq. 2's pull a 14-around elliptic helix
+    left its surface) or a first fit that did not converge returns None: the caller fits it as a dense wall.
+    Returns the second fit's :class:`_Iteration`, or None."""
+    K, n_data = len(nodes), np.count_nonzero((areas > 0) & ~ends_s)
+    k1 = min(K, max(4, n_data // tol.GC_SPARSE_VERTICES))
+    first = nodes if k1 == K else _resample_arclength(nodes, k1)
+    it = fixed_point(first, s0, Vs, areas, ends_s, rscale, length0, lam=lam * tol.GC_LAMBDA_FLOOR, mu=mu,
+                     max_iter=max_iter, initial_normal=initial_normal)
+    log.debug("sparse wall (%d data vertices on %d nodes): first fit on %d nodes, %d iterations, %s", n_data, K, k1,
+              it.count, "clean" if it.sparse is not None else "not clean or unconverged: fitted as a dense wall")
+    if it.sparse is None:
+        return None
+    return fixed_point(_resample_arclength(it.nodes, K), it.s, Vs, areas, ends_s, rscale, length0,
+                       lam=lam * tol.GC_LAMBDA_FLOOR, mu=mu, max_iter=max_iter, initial_normal=initial_normal,
+                       pull=False)
 
 
 def _refined(it, Vs, areas, ends_s, rscale, length0, lam, mu, max_iter, initial_normal):
@@ -912,6 +965,9 @@ class FitProblem:
     rescue : bool
         Whether the outlier test takes back vertices that lie on their wall's own circles
         (:func:`_on_wall_circles`): a second pass where the first fit's axis ran off its wall's centre.
+    pull : bool
+        Whether Eq. 2's weight pulls the axis towards its chord (the paper's term), or only smooths and damps
+        each step (``pull=False``, :func:`vesselgp.axis.circle_fit_solve`): a sparse wall's second fit.
     """
 
     nodes: np.ndarray
@@ -925,20 +981,21 @@ class FitProblem:
     pin: tuple = (True, True)
     mirror: tuple = (False, False)
     rescue: bool = False
+    pull: bool = True
 
 
 def fixed_point(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_iter, initial_normal=None,
-                what="generalized-cylinder fit", growing=None, rescue=False):
+                what="generalized-cylinder fit", growing=None, rescue=False, pull=True):
     """Iterate Eq. 3 and Eq. 5 (projection, circle-fit correction, radius) to their fixed point.
 
     :func:`fixed_points` of the one :class:`FitProblem` these arguments describe (its
-    attributes, ``rescue`` among them; ``lam``, ``mu``, ``max_iter``, ``what`` and ``growing`` as there).
+    attributes, ``rescue`` and ``pull`` among them; ``lam``, ``mu``, ``max_iter``, ``what`` and ``growing`` as there).
 
     Returns
     -------
     _Iteration
     """
-    problem = FitProblem(nodes, s0, Vs, areas, ends_s, rscale, length0, initial_normal, rescue=rescue)
+    problem = FitProblem(nodes, s0, Vs, areas, ends_s, rscale, length0, initial_normal, rescue=rescue, pull=pull)
     return fixed_points([problem], lam=lam, mu=mu, max_iter=max_iter, what=what, growing=growing)[0]
 
 
@@ -1100,7 +1157,7 @@ def _iterate(stack, its, windows, lam, mu, stop_singular=False, polish=None):
                 out.append(replace(it, lam=lam, sparse=sparse_clean_wall(rel, K)))
                 continue
         corr = circle_fit_solve(axes[b].node_frames(), it.nodes, circle[0][o:o + K - 1], circle[1][o:o + K - 1],
-                                lam_b, p.rscale, p.pin, p.mirror, singular=how)
+                                lam_b, p.rscale, p.pin, p.mirror, singular=how, pull=p.pull)
         radii = None if corr is None else _radius_solve(radius[0][o:o + K], radius[1][o:o + K - 1],
                                                         radius[2][o:o + K], mu, singular=how)
         if radii is None:

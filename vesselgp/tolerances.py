@@ -91,6 +91,10 @@ GC_REFINE_FREE_END = 3.0
 #: most GC_LAMBDA_VERTICES) on a wall that scatters as little as a refined one is fitted again on fewer
 #: nodes, this many data vertices per segment (vesselgp.fit.refined): the XCAT network tree's thin branches.
 GC_COARSEN_VERTICES = 22
+#: A single vessel's wall with fewer than this many data vertices per segment of its default nodes (less than a
+#: ring: 6-8 around) is fitted first on nodes this many data vertices per segment apart, then without Eq. 2's
+#: pull (vesselgp.fit._sparse_fit, issue #48).
+GC_SPARSE_VERTICES = 10
 #: ... when that spaces its nodes at most this many times as far apart (a wall much sparser keeps its fit).
 GC_COARSEN_SPACING = 1.5
 #: Eq. 3's step on a tapering tube is a Newton step (vesselgp.taper): the radius's slope at a node is the
