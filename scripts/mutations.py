@@ -32,6 +32,31 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    # --- 2026-12-07 (late): a flat fan is a patch of its own (vesselgp.mesh._ends_caps._fans)
+    "fans_not_carved": (
+        "vesselgp/mesh/_ends_caps.py",
+        "    lab, ncomp, rim = _fans(F, topo, N, A, *split)",
+        "    lab, ncomp, rim = split",
+        ["tests/test_oblique_caps.py"],
+    ),
+    "fans_from_one_face_more": (
+        "vesselgp/mesh/_ends_caps.py",
+        "    centres = np.flatnonzero(valence >= tol.CAP_FAN_VALENCE)",
+        "    centres = np.flatnonzero(valence > tol.CAP_FAN_VALENCE)",
+        ["tests/test_oblique_caps.py::test_a_flat_fan_is_a_patch_of_its_own_from_its_valence"],
+    ),
+    "fans_not_flat_carved": (
+        "vesselgp/mesh/_ends_caps.py",
+        "        if n == 0 or np.any(N[fs] @ (m / n) < np.cos(tol.CAP_FLATNESS)) or",
+        "        if n == 0 or",
+        ["tests/test_oblique_caps.py::test_a_fan_that_is_not_flat_is_not_cut_out"],
+    ),
+    "fans_rim_not_recomputed": (
+        "vesselgp/mesh/_ends_caps.py",
+        "    return lab, ncomp + carved, inner[lab[f] != lab[g]]",
+        "    return lab, ncomp + carved, rim",
+        ["tests/test_oblique_caps.py"],
+    ),
     # --- issue #48 (2026-12-07, late): a sparse wall's two fits (vesselgp.fit._sparse_fit, pull=False)
     "sparse_pull_kept": (
         "vesselgp/axis.py",

@@ -40,6 +40,9 @@ FRAME_ORTHONORMAL = 1e-6
 
 #: Max deviation of a flat cap's face normals from their mean (radians).
 CAP_FLATNESS = 0.2
+#: A vertex of at least this many faces, all within CAP_FLATNESS of their mean normal, is a fan's centre: its
+#: faces are a flat patch of their own (vesselgp.mesh._ends_caps._fans; the real meshes' vertices have at most 12).
+CAP_FAN_VALENCE = 16
 
 #: Relative area below which a triangle is degenerate (area < DEGENERATE_AREA * its longest
 #: edge^2: no finite cotangent weights), and a boundary loop encloses no area
