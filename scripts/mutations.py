@@ -32,6 +32,37 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    # --- issue #48 (2026-12-07, late): a fit that did not converge, again from coarser nodes
+    "coarse_to_fine_off": (
+        "vesselgp/fit.py",
+        "    if default_nodes and not it.converged:\n",
+        "    if False:\n",
+        ["tests/test_coarse_to_fine.py", "tests/test_real_shapes.py"],
+    ),
+    "coarse_to_fine_kinks_kept": (
+        "vesselgp/fit.py",
+        "    return replace(again, count=count) if again.converged and not kinks else it",
+        "    return replace(again, count=count) if again.converged else it",
+        ["tests/test_coarse_to_fine.py::test_a_second_try_that_kinks_leaves_the_first"],
+    ),
+    "coarse_to_fine_unconverged_kept": (
+        "vesselgp/fit.py",
+        "    return replace(again, count=count) if again.converged and not kinks else it",
+        "    return replace(again, count=count) if not kinks else it",
+        ["tests/test_coarse_to_fine.py::test_a_second_try_that_does_not_converge_leaves_the_first"],
+    ),
+    "coarse_to_fine_no_free_stage": (
+        "vesselgp/fit.py",
+        "        again = free if free.converged else again\n",
+        "        again = again\n",
+        ["tests/test_real_shapes.py"],
+    ),
+    "coarse_to_fine_count_of_last_stage": (
+        "vesselgp/fit.py",
+        "    count = it.count + first.count + again.count\n",
+        "    count = 0\n",
+        ["tests/test_coarse_to_fine.py"],
+    ),
     # --- 2026-12-07 (late): a flat fan is a patch of its own (vesselgp.mesh._ends_caps._fans)
     "fans_not_carved": (
         "vesselgp/mesh/_ends_caps.py",

@@ -98,6 +98,10 @@ GC_COARSEN_VERTICES = 22
 #: ring: 6-8 around) is fitted first on nodes this many data vertices per segment apart, then without Eq. 2's
 #: pull (vesselgp.fit._sparse_fit, issue #48).
 GC_SPARSE_VERTICES = 10
+#: A single vessel's fit on its default nodes that did not converge is fitted again from a fixed point on nodes
+#: this many times as far apart (vesselgp.fit._coarse_to_fine, issue #48: the 2.5:1 vein's first axis lay outside
+#: its fixed point's basin; every stage first was tried: at 2 and 4 times the real XCAT and iliac lines left it).
+GC_COARSE_FIRST = 4
 #: ... when that spaces its nodes at most this many times as far apart (a wall much sparser keeps its fit).
 GC_COARSEN_SPACING = 1.5
 #: Eq. 3's step on a tapering tube is a Newton step (vesselgp.taper): the radius's slope at a node is the
