@@ -35,20 +35,26 @@ MUTATIONS = {
     # --- issue #48 (2026-12-07, late): a fit that did not converge, again from coarser nodes
     "coarse_to_fine_off": (
         "vesselgp/fit.py",
-        "    if default_nodes and not it.converged:\n",
-        "    if False:\n",
+        "        if it.converged or not default_nodes:\n            raise\n",
+        "        raise\n",
         ["tests/test_coarse_to_fine.py", "tests/test_real_shapes.py"],
     ),
-    "coarse_to_fine_kinks_kept": (
+    "coarse_to_fine_second_refusal_raised": (
         "vesselgp/fit.py",
-        "    return replace(again, count=count) if again.converged and not kinks else it",
-        "    return replace(again, count=count) if again.converged else it",
-        ["tests/test_coarse_to_fine.py::test_a_second_try_that_kinks_leaves_the_first"],
+        "            raise err from None",
+        "            raise",
+        ["tests/test_coarse_to_fine.py::test_a_second_try_refused_too_leaves_the_first_refusal"],
+    ),
+    "coarse_to_fine_for_answered_fits": (
+        "vesselgp/fit.py",
+        "        return checked(it), it\n",
+        "        if not it.converged and default_nodes:\n            raise NotTubularError('again')\n        return checked(it), it\n",
+        ["tests/test_coarse_to_fine.py::test_an_unconverged_fit_its_checks_pass_is_answered_as_before"],
     ),
     "coarse_to_fine_unconverged_kept": (
         "vesselgp/fit.py",
-        "    return replace(again, count=count) if again.converged and not kinks else it",
-        "    return replace(again, count=count) if not kinks else it",
+        "    return replace(again, count=count) if again.converged else None",
+        "    return replace(again, count=count)",
         ["tests/test_coarse_to_fine.py::test_a_second_try_that_does_not_converge_leaves_the_first"],
     ),
     "coarse_to_fine_no_free_stage": (
