@@ -177,8 +177,13 @@ def _fans(F, topo, N, A, lab, ncomp, rim):
         return lab, ncomp, rim
     lab = lab.copy()
     carved = 0
-    for v in centres:
-        fs = np.flatnonzero((F == v).any(axis=1))
+    is_centre = np.zeros(len(valence), bool)
+    is_centre[centres] = True
+    rows = np.flatnonzero(is_centre[F].ravel())  # each centre's faces from one sort (not a scan of F per centre)
+    fv = F.ravel()[rows]
+    order = np.argsort(fv, kind="stable")
+    cuts = np.flatnonzero(np.diff(fv[order])) + 1
+    for fs in np.split(rows[order] // 3, cuts):
         m = (N[fs] * A[fs, None]).sum(axis=0)
         n = np.linalg.norm(m)
         if n == 0 or np.any(N[fs] @ (m / n) < np.cos(tol.CAP_FLATNESS)) or np.unique(lab[fs]).size == 1 and (
