@@ -32,6 +32,19 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    # --- issue #48 (2026-12-07, late): the torsion meter refuses an axis it cannot recover
+    "torsion_recovery_unchecked": (
+        "vesselgp/torsion.py",
+        "        _check_recovery(rest_axis, rest)\n",
+        "",
+        ["tests/test_torsion_recovery.py"],
+    ),
+    "torsion_recovery_worst_not_mean": (
+        "vesselgp/torsion.py",
+        "    off = float(np.mean(d / rest.radius_at(recovered.s[inner])))",
+        "    off = float(np.max(d / rest.radius_at(recovered.s[inner])))",
+        ["tests/test_torsion_recovery.py"],
+    ),
     # --- issue #48 (2026-12-07, late): a fit that did not converge, again from coarser nodes
     "coarse_to_fine_off": (
         "vesselgp/fit.py",

@@ -102,6 +102,10 @@ GC_SPARSE_VERTICES = 10
 #: this many times as far apart (vesselgp.fit._coarse_to_fine, issue #48: the 2.5:1 vein's first axis lay outside
 #: its fixed point's basin; every stage first was tried: at 2 and 4 times the real XCAT and iliac lines left it).
 GC_COARSE_FIRST = 4
+#: The torsion meter refuses a vessel whose axis, recovered from the rest mesh by the meter's own Eq. 6 and
+#: circle-fit corrections, runs on average more than this many radii off the rest fit's axis
+#: (vesselgp.torsion._check_recovery: a 2.5:1 vein 0.046, its twists 12-34 degrees off; circular walls <= 0.016).
+TORSION_RECOVERY_OFF = 0.03
 #: ... when that spaces its nodes at most this many times as far apart (a wall much sparser keeps its fit).
 GC_COARSEN_SPACING = 1.5
 #: Eq. 3's step on a tapering tube is a Newton step (vesselgp.taper): the radius's slope at a node is the
