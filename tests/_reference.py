@@ -218,3 +218,12 @@ def material_twist(V_rest, V_def, s, *, n_bins=30, degree=9, U0=None):
     d = wrap(theta[1] - theta[0])
     z = np.bincount(b, np.cos(d), n_bins) + 1j * np.bincount(b, np.sin(d), n_bins)
     return sb, np.unwrap(np.angle(z))
+
+
+def swept_axis_errors(ves, gc, edge=2.0):
+    """A swept synthetic vessel's exact centre line -> fitted axis polyline ``gc.dense_points``, in % of the local
+    radius, ``edge`` radii from each end cut (the swept spline is the truth, never the fit)."""
+    t = ves.truth
+    st = t.s * t.length
+    inner = (st > edge * t.radii[0]) & (st < t.length - edge * t.radii[-1])
+    return 100 * polyline_distance(t.centers[inner], gc.dense_points) / t.radii[inner]

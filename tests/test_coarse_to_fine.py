@@ -7,20 +7,12 @@ import numpy as np
 import pytest
 
 from _data import REAL, needs_real, repo_module
-from _reference import polyline_distance
+from _reference import swept_axis_errors
 
 import vesselgp
 from vesselgp import fit
 from vesselgp import tolerances as tol
 from vesselgp.synthetic import synthetic_vessel
-
-
-def _errors(ves, gc):
-    """Exact centre line -> fitted axis, % of the radius, two radii from each end cut."""
-    t = ves.truth
-    st = t.s * t.length
-    inner = (st > 2 * t.radii[0]) & (st < t.length - 2 * t.radii[-1])
-    return 100 * polyline_distance(t.centers[inner], gc.dense_points) / t.radii[inner]
 
 
 def _vein():
@@ -33,7 +25,7 @@ def test_a_flattened_vein_follows_its_line_where_one_fit_was_refused(monkeypatch
     first fit's cap); with no second try (GC_COARSE_FIRST past the node count) the first fit kinks and is refused."""
     ves = _vein()
     gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
-    e = _errors(ves, gc)
+    e = swept_axis_errors(ves, gc)
     assert gc.converged and e.mean() < 0.055 and e.max() < 0.1, (e.mean(), e.max())
     assert gc.iterations > tol.GC_MAX_ITER
     monkeypatch.setattr(tol, "GC_COARSE_FIRST", 10 ** 9)

@@ -140,15 +140,19 @@ ARCH = "cardiopinns_aortic-arch-4dflow_capped.stl"
 
 
 @functools.lru_cache(maxsize=None)
-def _arch_clipped(cap=True):
-    """The 4D-flow arch (its faces turned by pymeshlab, as scripts/real_meshes.py turns them) clipped by
-    data_gen/clipped.py's plane pc1@0.35, beside its supra-aortic branches, capped by fans or open: ``(W, G)`` and
-    the plane's ``(normal, point)``."""
+def _clipped_real(name, tag, cap=True):
+    """Real mesh ``name`` (its faces turned by pymeshlab, as scripts/real_meshes.py turns them) clipped by
+    data_gen/clipped.py's plane ``tag``, capped by fans or open: ``(W, G)`` and the plane's ``(normal, point)``."""
     clip = repo_module("clipped")
-    V, F = vesselgp.read_mesh(REAL / ARCH)[:2]
+    V, F = vesselgp.read_mesh(REAL / name)[:2]
     F = repo_module("real_meshes", "scripts")._oriented(V, F)
-    (_, n, c), = [p for p in clip.planes(V, ARCH) if p[0] == "pc1@0.35"]
+    (_, n, c), = [p for p in clip.planes(V, name) if p[0] == tag]
     return clip.clipped(V, F, n, c, cap=cap), (n, c)
+
+
+def _arch_clipped(cap=True):
+    """The 4D-flow arch clipped by the plane pc1@0.35, beside its supra-aortic branches."""
+    return _clipped_real(ARCH, "pc1@0.35", cap)
 
 
 @needs_real(ARCH)
@@ -287,17 +291,6 @@ def test_a_fan_that_is_not_flat_is_not_cut_out(monkeypatch):
 GMSH_ARCH = "gmsh_aortic-arch_open.stl"
 
 
-@functools.lru_cache(maxsize=None)
-def _gmsh_arch_clipped():
-    """The gmsh aortic arch clipped by data_gen/clipped.py's plane pc0@0.65 through its branches' roots and capped
-    by fans: ``(W, G)`` and the plane's ``(normal, point)``."""
-    clip = repo_module("clipped")
-    V, F = vesselgp.read_mesh(REAL / GMSH_ARCH)[:2]
-    F = repo_module("real_meshes", "scripts")._oriented(V, F)
-    (_, n, c), = [p for p in clip.planes(V, GMSH_ARCH) if p[0] == "pc0@0.65"]
-    return clip.clipped(V, F, n, c, cap=True), (n, c)
-
-
 @needs_real(GMSH_ARCH)
 def test_a_real_arch_clipped_through_a_flaring_stub_keeps_its_end(monkeypatch):
     """The gmsh arch clipped through its branches' roots and capped by fans: a branch stub 1.2 of its radii long,
@@ -306,7 +299,7 @@ def test_a_real_arch_clipped_through_a_flaring_stub_keeps_its_end(monkeypatch):
     clip's four, 97.1 % of its wall described, every check passing. Its fan is now a patch of its own, met by the
     wall on 57 % of its rim, which no centre line reaches: the end is kept (three ends, all the wall described), its
     centre 0.55 of the branch's radius from where VMTK's line of that branch crosses the plane (bound 1)."""
-    (W, G), (n, c) = _gmsh_arch_clipped()
+    (W, G), (n, c) = _clipped_real(GMSH_ARCH, "pc0@0.65")  # through its branches' roots, capped by fans
     tree = vesselgp.fit_vessel_tree(W, G)
     assert len(tree.ends) == 3 and tree.checks.covered_fraction > 0.999
     (P, Rv) = vmtk_lines(GMSH_ARCH)[2]

@@ -6,21 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from _reference import polyline_distance
+from _reference import swept_axis_errors
 
 import vesselgp
 from vesselgp import fit
 from vesselgp import tolerances as tol
 from vesselgp.axis import Axis, circle_fit_solve, circle_fit_sums, local_coords
 from vesselgp.synthetic import named_curve, synthetic_vessel
-
-
-def _errors(ves, gc):
-    """Exact centre line -> fitted axis, % of the radius, two radii from each end cut."""
-    t = ves.truth
-    st = t.s * t.length
-    inner = (st > 2 * t.radii[0]) & (st < t.length - 2 * t.radii[-1])
-    return 100 * polyline_distance(t.centers[inner], gc.dense_points) / t.radii[inner]
 
 
 def _helix6():
@@ -44,7 +36,7 @@ def test_a_helix_six_around_follows_its_line_where_one_fit_was_refused(monkeypat
     is refused (its axis comes within 0.17 radii of the wall)."""
     ves = _helix6()
     gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
-    e = _errors(ves, gc)
+    e = swept_axis_errors(ves, gc)
     assert gc.converged and e.mean() < 0.04 and e.max() < 0.15, (e.mean(), e.max())
     assert abs(gc.mean_radius / 2.5 - 1) < 0.01
     _one_fit(monkeypatch)
@@ -57,11 +49,11 @@ def test_a_tight_helix_eight_around_follows_its_line(monkeypatch):
     0.80 worst, unconverged."""
     ves = _tight8()
     gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
-    e = _errors(ves, gc)
+    e = swept_axis_errors(ves, gc)
     assert gc.converged and e.mean() < 0.03 and e.max() < 0.25, (e.mean(), e.max())
     _one_fit(monkeypatch)
     one = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
-    assert _errors(ves, one).mean() > 0.25
+    assert swept_axis_errors(ves, one).mean() > 0.25
 
 
 def test_without_the_pull_an_exact_axis_stays_put():

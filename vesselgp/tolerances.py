@@ -94,20 +94,16 @@ GC_REFINE_FREE_END = 3.0
 #: most GC_LAMBDA_VERTICES) on a wall that scatters as little as a refined one is fitted again on fewer
 #: nodes, this many data vertices per segment (vesselgp.fit.refined): the XCAT network tree's thin branches.
 GC_COARSEN_VERTICES = 22
+#: ... when that spaces its nodes at most this many times as far apart (a wall much sparser keeps its fit).
+GC_COARSEN_SPACING = 1.5
 #: A single vessel's wall with fewer than this many data vertices per segment of its default nodes (less than a
 #: ring: 6-8 around) is fitted first on nodes this many data vertices per segment apart, then without Eq. 2's
 #: pull (vesselgp.fit._sparse_fit, issue #48).
 GC_SPARSE_VERTICES = 10
-#: A single vessel's fit on its default nodes that did not converge is fitted again from a fixed point on nodes
+#: A single vessel's fit on its default nodes that did not converge and is refused by its checks is fitted again from a fixed point on nodes
 #: this many times as far apart (vesselgp.fit._coarse_to_fine, issue #48: the 2.5:1 vein's first axis lay outside
 #: its fixed point's basin; every stage first was tried: at 2 and 4 times the real XCAT and iliac lines left it).
 GC_COARSE_FIRST = 4
-#: The torsion meter refuses a vessel whose axis, recovered from the rest mesh by the meter's own Eq. 6 and
-#: circle-fit corrections, runs on average more than this many radii off the rest fit's axis
-#: (vesselgp.torsion._check_recovery: a 2.5:1 vein 0.046, its twists 12-34 degrees off; circular walls <= 0.016).
-TORSION_RECOVERY_OFF = 0.03
-#: ... when that spaces its nodes at most this many times as far apart (a wall much sparser keeps its fit).
-GC_COARSEN_SPACING = 1.5
 #: Eq. 3's step on a tapering tube is a Newton step (vesselgp.taper): the radius's slope at a node is the
 #: least-squares line through the nodes within this many local radii of it.
 GC_TAPER_WINDOW = 1.0
@@ -220,6 +216,10 @@ TORSION_BINS_PER_NODE = 2
 TORSION_SMOOTHING = 1.0
 #: Bins of Eq. 7 whose mean s are closer than this fraction of a bin are merged.
 TORSION_MIN_BIN_GAP = 0.25
+#: The torsion meter refuses a vessel whose axis, recovered from the rest mesh by the meter's own Eq. 6 and
+#: circle-fit corrections, runs on average more than this many radii off the rest fit's axis
+#: (vesselgp.torsion._check_recovery: a 2.5:1 vein 0.046, its twists 12-34 degrees off; circular walls <= 0.016).
+TORSION_RECOVERY_OFF = 0.03
 
 # --- synthetic vessels (vesselgp.synthetic) ---------------------------------
 #: Default number of samples of a named centre line (before arc-length resampling).

@@ -175,7 +175,7 @@ def _fans(F, topo, N, A, lab, ncomp, rim):
     centres = np.flatnonzero(valence >= tol.CAP_FAN_VALENCE)
     if not len(centres):
         return lab, ncomp, rim
-    lab = lab.copy()
+    lab = lab.copy()  # a fan that is a crease patch already gets a label of its own too (its old one left empty)
     carved = 0
     is_centre = np.zeros(len(valence), bool)
     is_centre[centres] = True
@@ -186,11 +186,9 @@ def _fans(F, topo, N, A, lab, ncomp, rim):
     for fs in np.split(rows[order] // 3, cuts):
         m = (N[fs] * A[fs, None]).sum(axis=0)
         n = np.linalg.norm(m)
-        if n == 0 or np.any(N[fs] @ (m / n) < np.cos(tol.CAP_FLATNESS)) or np.unique(lab[fs]).size == 1 and (
-                np.count_nonzero(lab == lab[fs[0]]) == len(fs)):
-            continue  # not flat, or already a patch of its own
-        lab[fs] = ncomp + carved
-        carved += 1
+        if n > 0 and np.all(N[fs] @ (m / n) >= np.cos(tol.CAP_FLATNESS)):  # flat
+            lab[fs] = ncomp + carved
+            carved += 1
     if not carved:
         return lab, ncomp, rim
     inner = np.flatnonzero(topo.edge_face_count == 2)
