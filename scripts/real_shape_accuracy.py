@@ -3,6 +3,7 @@
 Usage::
 
     python scripts/real_shape_accuracy.py [--case NAME ...] [--vmtk /tmp/peer-vmtk/bin/python] [--remesh] [--json OUT]
+    python scripts/real_shape_accuracy.py --torsion [--case NAME ...]
     python scripts/real_shape_accuracy.py --tree [NAME ...]
 
 For each case of ``data_gen/real_shapes.py`` (real, tortuous centre lines of ``shared/data/real`` with circles
@@ -19,6 +20,11 @@ measures, away from the open ends (``EDGE`` radii of each end cut from it):
 With ``--vmtk`` the same is measured for VMTK 1.5.2's centre line between the two end centres
 (``shared/peers/vmtk/vmtk_centerline.py``, qhull Delaunay); VMTK's line stops short of open ends, so only the
 samples within its arc are counted, and ``vmtk_cover`` says how much of the line it covers.
+
+``--torsion`` measures, for each case, the twists ``SWEPT_TWISTS`` of ``tests/_reference.py`` imposed on the
+swept rings about the exact line (a uniform 1.2 rad; a ramp of 180 degrees over 40 % of the length, its steepest
+rate given in degrees per mean radius): the worst alpha error (degrees), the energy error (%) and the profile's
+``smoothing_residual`` (degrees) of :func:`vesselgp.measure_torsion` (the "torsion on the swept real lines" table of docs/accuracy.md).
 
 ``--tree`` measures the network trees instead (``NETWORK_TREES``: a real tree's whole VMTK network meshed by the
 synthetic tree's mesher) with :func:`vesselgp.fit_vessel_tree`: each true branch against the nearest fitted path,
@@ -164,6 +170,31 @@ def measure(name, vmtk=None, remesh=False):
     return row
 
 
+def measure_torsion(name):
+    import real_shapes as rs
+    from _reference import SWEPT_TWISTS, imposed_twist_errors
+
+    import vesselgp
+    from vesselgp.synthetic import deform_synthetic
+
+    ves = rs.case_vessel(name)
+    gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    row = {"case": name, "length_radii": round(float(gc.length / gc.mean_radius), 1)}
+    for tag, (alpha, dalpha) in SWEPT_TWISTS.items():
+        try:
+            prof = vesselgp.measure_torsion(ves.V, deform_synthetic(ves, twist=alpha), ves.F, rest=gc)
+        except vesselgp.VesselError as err:
+            row[tag] = {"error": str(err)[:120]}
+            continue
+        a, e = imposed_twist_errors(prof, gc, ves.truth, alpha, dalpha)
+        row[tag] = {"alpha_deg": round(a, 3), "energy_pct": round(e, 2),
+                    "residual_deg": round(float(np.degrees(prof.smoothing_residual)), 2)}
+    s = np.linspace(0, 1, 2001)
+    row["ramp_deg_per_radius"] = round(float(np.degrees(np.abs(SWEPT_TWISTS["ramp"][1](s)).max())
+                                             * gc.mean_radius / gc.length), 1)
+    return row
+
+
 def measure_tree(name):
     import real_shapes as rs
 
@@ -190,8 +221,16 @@ def main(argv=None):
     ap.add_argument("--json", type=Path)
     ap.add_argument("--tree", nargs="*", choices=sorted(rs.NETWORK_TREES), help="measure these network trees "
                     "(all when none is named) instead of the single tubes")
+    ap.add_argument("--torsion", action="store_true", help="measure imposed twists on the cases instead")
     a = ap.parse_args(argv)
     rows = []
+    if a.torsion:
+        for name in a.case or list(rs.CASES):
+            rows.append(measure_torsion(name))
+            print(json.dumps(rows[-1]), flush=True)
+        if a.json:
+            a.json.write_text(json.dumps(rows, indent=1))
+        return 0
     if a.tree is not None:
         for name in a.tree or list(rs.NETWORK_TREES):
             rows.append(measure_tree(name))

@@ -227,3 +227,30 @@ def swept_axis_errors(ves, gc, edge=2.0):
     st = t.s * t.length
     inner = (st > edge * t.radii[0]) & (st < t.length - edge * t.radii[-1])
     return 100 * polyline_distance(t.centers[inner], gc.dense_points) / t.radii[inner]
+
+
+#: A uniform twist of 1.2 rad and a ramp of pi over s in [0.3, 0.7] (a raised cosine), each with its derivative
+#: in normalised arc length: the imposed twists of the swept real shapes (docs/accuracy.md).
+SWEPT_TWISTS = {
+    "uniform": (lambda s: 1.2 * np.asarray(s, float), lambda s: np.full_like(np.asarray(s, float), 1.2)),
+    "ramp": (lambda s: np.pi * 0.5 * (1 - np.cos(np.pi * np.clip((np.asarray(s, float) - 0.3) / 0.4, 0, 1))),
+             lambda s: np.where((np.asarray(s) > 0.3) & (np.asarray(s) < 0.7),
+                                np.pi * 0.5 * np.pi / 0.4 * np.sin(np.pi * (np.asarray(s, float) - 0.3) / 0.4), 0.0)),
+}
+
+
+def imposed_twist_errors(prof, gc, truth, alpha, dalpha):
+    """A measured torsion profile ``prof`` against the twist ``alpha`` (of the exact centre line's normalised arc
+    length, derivative ``dalpha``) imposed on a swept tube whose fit ``gc`` may run from either end: the worst
+    alpha error in degrees over the interior 90 % of s, and the Eq. 8 energy's error in % of the exact
+    ``int alpha'^2 ds``."""
+    reverse = np.linalg.norm(gc.centers[0] - truth.centers[0]) > np.linalg.norm(gc.centers[0] - truth.centers[-1])
+    s_true = 1 - prof.s if reverse else prof.s
+    a_true = alpha(s_true) - alpha(s_true[0])
+    if reverse:
+        a_true = -a_true  # T points the other way, so the rotation about it changes sign
+    inner = (prof.s > 0.05) & (prof.s < 0.95)
+    err = float(np.degrees(np.abs(prof.alpha - a_true)[inner].max()))
+    s = np.linspace(0, 1, 20001)
+    e_true = float(np.trapezoid(dalpha(s) ** 2, s))
+    return err, 100.0 * (prof.energy - e_true) / e_true

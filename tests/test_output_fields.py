@@ -60,6 +60,7 @@ profile.json / profile.csv (vesselgp torsion; commands.torsion.profile_to_dict +
     energy, total_twist_deg, twist_per_length_deg, length
         ........ test_profile_energy_total_and_rate_are_those_of_the_imposed_twist_on_the_deformed_axis
     curvature, frenet_torsion ..... test_profile_curvature_and_frenet_torsion_are_the_deformed_left_handed_helix
+    smoothing_residual_deg ........ test_profile_smoothing_residual_is_what_the_smooth_profile_left_out
     s, command, rest, deformed, units, input_units, to_mm, time_s ... test_profile_bookkeeping_names_rest_and_deformed
     profile.csv (every column) .... test_profile_csv_holds_the_profile_arrays
 result.json (vesselgp join; commands.join.write_join_outputs + cli._join_summary)
@@ -591,6 +592,18 @@ def test_profile_dalpha_is_the_twist_rate_per_normalised_length(torsion, tag):
     s = np.array(p["s"])
     inner = (s > 0.1) & (s < 0.9)
     assert np.abs(np.array(p["dalpha_deg"]) - _dalpha_true_deg(tag, s))[inner].max() < 2.0
+
+
+@pytest.mark.parametrize("tag", ["fwd", "rev"])
+def test_profile_smoothing_residual_is_what_the_smooth_profile_left_out(torsion, tag):
+    """smoothing_residual_deg: the bins' departure from the smoothed alpha. PHI s^2 is smooth on the smoothing's
+    scale, so the bins lie on it: the residual is no more than alpha's own error against the imposed twist plus the
+    bins' (each within 1 degree), and under the 0.5 degrees at which the command warns (tests/test_torsion_damping.py
+    drives it up with a twist the smoothing damps)."""
+    p = torsion[tag]
+    s = np.array(p["s"])
+    err = np.abs(np.array(p["alpha_deg"]) - _alpha_true_deg(tag, s)).max()
+    assert 0.0 <= p["smoothing_residual_deg"] < min(0.5, err + 1.0)
 
 
 def test_the_torsion_length_and_the_fit_length_of_one_vessel_agree(torsion, tmp_path):

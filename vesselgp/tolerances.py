@@ -6,6 +6,8 @@ the toolkit behaves the same in millimetres and in metres.
 """
 from __future__ import annotations
 
+import math
+
 #: Squared norm below which a vector is treated as zero (unit-free, used on
 #: vectors already divided by a length scale).
 ZERO_VECTOR = 1e-24
@@ -220,6 +222,14 @@ TORSION_MIN_BIN_GAP = 0.25
 #: circle-fit corrections, runs on average more than this many radii off the rest fit's axis
 #: (vesselgp.torsion._check_recovery: a 2.5:1 vein 0.046, its twists 12-34 degrees off; circular walls <= 0.016).
 TORSION_RECOVERY_OFF = 0.03
+#: measure_torsion warns where Eq. 7's bin means depart from the smoothed alpha(s) by more than this (radians,
+#: 0.5 degrees; TorsionProfile.smoothing_residual): the clean swept real lines and the synthetic torsion table read
+#: at most 0.19 degrees; a ramp of 180 degrees over 1.8 radii 12.5 (alpha 13.7 off), the thin XCAT line's 8-around
+#: rings 3.0 (0.69 off).
+TORSION_DAMPED = math.radians(0.5)
+#: ... measured over the bins farther than this from either end of s (the interior 90 %, where docs/accuracy.md states
+#: alpha's accuracy: the last half-bin of an open end follows the end's own wall, 1.5 degrees off a smooth twist).
+TORSION_RESIDUAL_EDGE = 0.05
 
 # --- synthetic vessels (vesselgp.synthetic) ---------------------------------
 #: Default number of samples of a named centre line (before arc-length resampling).

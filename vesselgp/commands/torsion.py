@@ -19,7 +19,7 @@ from ..fit import fit_generalized_cylinder
 from ..html_report import ViewMesh, write_report_html
 from ..io import write_csv, write_json
 from ..network import centerline_network
-from ..torsion import TorsionMeter
+from ..torsion import measure_torsion
 from ..viz import plot_torsion_profile, render_mesh, torsion_colors
 from .output import _write_centerlines, _write_shaded, read_mesh_in
 
@@ -38,6 +38,7 @@ def profile_to_dict(prof):
         "dalpha_deg": np.degrees(prof.dalpha),
         "curvature": prof.curvature,
         "frenet_torsion": np.where(prof.frenet_defined, prof.frenet_torsion, np.nan),
+        "smoothing_residual_deg": math.degrees(prof.smoothing_residual),
     }
 
 
@@ -74,7 +75,7 @@ def run_torsion(rest, deformed, out, *, smoothing=None, ends=None, units=None, s
                             f"{len(F1)} faces) meshes must share vertices and faces")
     t0 = time.perf_counter()
     rest_fit = fit_generalized_cylinder(V0, F0, ends=ends)
-    prof = TorsionMeter(V0, F0, rest_fit, smoothing=smoothing)(V1)
+    prof = measure_torsion(V0, V1, F0, rest=rest_fit, smoothing=smoothing)
     dt = time.perf_counter() - t0
     d = {"command": "torsion", "rest": str(rest), "deformed": str(deformed), **uinfo, "time_s": dt,
          **profile_to_dict(prof)}
