@@ -32,6 +32,49 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    # --- issue #48 (2026-12-07, night): the smoothing's residual and the converged recovery of a dense wall
+    "torsion_residual_all_bins": (
+        "vesselgp/torsion.py",
+        "    inner = (sb > tol.TORSION_RESIDUAL_EDGE) & (sb < 1.0 - tol.TORSION_RESIDUAL_EDGE)\n",
+        "    inner = sb >= 0\n",
+        ["tests/test_output_fields.py", "tests/test_torsion_damping.py"],
+    ),
+    "torsion_residual_unwarned": (
+        "vesselgp/torsion.py",
+        "    if prof.smoothing_residual > tol.TORSION_DAMPED:",
+        "    if prof.smoothing_residual > 10 * tol.TORSION_DAMPED:",
+        ["tests/test_torsion_damping.py"],
+    ),
+    "torsion_residual_mean": (
+        "vesselgp/torsion.py",
+        "    return float(np.abs(spl(sb[inner]) - ab[inner]).max()) if inner.any() else 0.0",
+        "    return float(np.abs(spl(sb[inner]) - ab[inner]).mean()) if inner.any() else 0.0",
+        ["tests/test_torsion_damping.py"],
+    ),
+    "torsion_dense_never": (
+        "vesselgp/torsion.py",
+        "        self._converge = correct_bias is None and _clean_dense_wall(rest)",
+        "        self._converge = False",
+        ["tests/test_torsion_damping.py"],
+    ),
+    "torsion_dense_gate_no_vertices": (
+        "vesselgp/torsion.py",
+        "    return n_data >= tol.GC_SPARSE_VERTICES * (len(rest.s) - 1)",
+        "    return True",
+        ["tests/test_torsion_damping.py"],
+    ),
+    "torsion_dense_gate_weight_loose": (
+        "vesselgp/torsion.py",
+        "    if rest.final_lam is None or rest.final_lam > tol.GC_REFINE_LAMBDA * rest.lam:",
+        "    if rest.final_lam is None or rest.final_lam > 1.02 * tol.GC_REFINE_LAMBDA * rest.lam:",
+        ["tests/test_torsion_damping.py"],
+    ),
+    "torsion_dense_stops_early": (
+        "vesselgp/torsion.py",
+        "            if self._converge and _converged(steps):",
+        "            if self._converge and len(steps) >= 2:",
+        ["tests/test_torsion_damping.py"],
+    ),
     # --- issue #48 (2026-12-07, late): the torsion meter refuses an axis it cannot recover
     "torsion_recovery_unchecked": (
         "vesselgp/torsion.py",

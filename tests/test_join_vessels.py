@@ -171,7 +171,8 @@ def test_real_coronary_onto_iliac_of_a_y(coronary):
     assert top.face_components[0] == 1 and top.is_edge_manifold
     assert len(top.boundary_loops) == 3  # the aorta, the other iliac and the coronary's held end
     assert np.linalg.norm(res.V[res.moving].mean(0) - origin) < 0.15 * ends[0].radius
-    assert abs(np.degrees(res.profile.total_twist)) <= 1.0
+    # docs/accuracy.md: 1.2 degrees at the optimum, the non-uniform part of alpha (a step at the stenosis)
+    assert abs(np.degrees(res.profile.total_twist)) <= 1.5 * 1.2
     assert res.max_edge_stretch <= 1.5
 
 

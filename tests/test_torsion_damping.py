@@ -117,3 +117,48 @@ def test_imposed_twists_on_the_swept_real_lines(case, caplog):
         if twist == "uniform":
             assert abs(energy) <= FACTOR * abs(u_energy) + 0.05, (energy, u_energy)
         assert any(_WARNS in r.getMessage() for r in caplog.records) == (twist in warned), twist
+
+
+# --- the converged recovery of a clean, dense circular wall (vesselgp.torsion._clean_dense_wall) -------------------
+
+
+@pytest.fixture(scope="module")
+def dense_arc():
+    """The synthetic aortic arch (radius 13 mm), 32 around and remeshed (3561 vertices: a clean, dense wall, whose
+    fit lowers Eq. 2's final weight), its fit and a uniform twist of 1.2 rad of it."""
+    ves = synthetic_vessel("aortic_arch", radius=13.0, n_around=32, seed=11)
+    gc = fit_generalized_cylinder(ves.V, ves.F)
+    return ves, gc, SWEPT_TWISTS["uniform"]
+
+
+def test_a_clean_dense_wall_takes_the_converged_recovery(dense_arc):
+    """The arch's wall is clean and dense (final weight at most GC_REFINE_LAMBDA of lam, at least GC_SPARSE_VERTICES
+    data vertices per segment): its meter runs the corrections to convergence and reads the twist within 0.01
+    degrees (measured 0.0027); forced to two corrections, 0.032 (the axis still moving)."""
+    ves, gc, (alpha, dalpha) = dense_arc
+    Vd = deform_synthetic(ves, twist=alpha)
+    meter = vesselgp.TorsionMeter(ves.V, ves.F, gc)
+    assert meter._converge
+    conv = imposed_twist_errors(meter(Vd), gc, ves.truth, alpha, dalpha)[0]
+    two = imposed_twist_errors(vesselgp.TorsionMeter(ves.V, ves.F, gc, correct_bias=2)(Vd), gc, ves.truth, alpha,
+                               dalpha)[0]
+    assert conv < 0.01 and two > 2 * conv, (conv, two)
+
+
+@pytest.mark.parametrize("side", [1.0, 1.0 + 1e-9])
+def test_the_dense_wall_gate_at_its_vertex_edge(dense_arc, monkeypatch, side):
+    """GC_SPARSE_VERTICES at the arc's own data vertices per segment: taken at 1, not just above."""
+    ves, gc, _ = dense_arc
+    n = np.count_nonzero((gc.vertex_weight > 0) & np.isfinite(gc.vertex_s)) / (len(gc.s) - 1)
+    monkeypatch.setattr(tol, "GC_SPARSE_VERTICES", side * n)
+    assert vesselgp.TorsionMeter(ves.V, ves.F, gc)._converge == (side == 1.0)
+
+
+@pytest.mark.parametrize("side", [1.0, 0.99])
+def test_the_dense_wall_gate_at_its_weight_edge(dense_arc, monkeypatch, side):
+    """GC_REFINE_LAMBDA at the arc fit's own final weight over lam: taken at 1, not at 0.99 (a wall whose final
+    circle fit kept more of Eq. 2's weight: segmented or non-circular)."""
+    ves, gc, _ = dense_arc
+    assert gc.final_lam < gc.lam
+    monkeypatch.setattr(tol, "GC_REFINE_LAMBDA", side * gc.final_lam / gc.lam)
+    assert vesselgp.TorsionMeter(ves.V, ves.F, gc)._converge == (side == 1.0)

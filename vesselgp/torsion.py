@@ -5,8 +5,8 @@ deformation method:
 
 1. the deformed medial axis is recovered by Eq. 6, the fixed point of Eq. 3
    with the rest correspondence (each vertex keeps its rest ``s_i``), followed
-   by the circle-fit correction of :mod:`vesselgp.fit` that removes Eq. 1's bend
-   bias;
+   by the circle-fit corrections of :mod:`vesselgp.fit` that remove Eq. 1's bend
+   bias (on a clean, densely meshed wall with the rest fit's final weight, to their convergence);
 2. its RMF is computed by double reflection (Section 1) and every vertex is
    re-parameterised ``(s_i, theta_i)`` on the deformed axis (above
    ``tolerances.TORSION_MEAN_VERTICES`` vertices, an evenly thinned subset of
@@ -140,8 +140,8 @@ class TorsionMeter:
 
     Holds the rest generalized cylinder, the factorised Eq. 6 system (the hat
     basis of the rest ``s_i`` and the ``lambda`` regulariser) and the rest angles
-    ``theta_i^0``, so each call costs one sparse back-substitution, one circle-fit
-    correction and the vertex projection.
+    ``theta_i^0``, so each call costs one sparse back-substitution, two circle-fit
+    corrections (up to their convergence on a clean, dense wall: 4-8) and the vertex projection.
 
     Parameters
     ----------
@@ -162,8 +162,10 @@ class TorsionMeter:
         Default ``tolerances.TORSION_SMOOTHING``, read when the meter is built.
     correct_bias : int, optional
         Number of circle-fit corrections after Eq. 6 (they remove Eq. 1's bend
-        bias); 0 keeps the plain Eq. 6 axis. Default
-        ``tolerances.TORSION_BIAS_CORRECTIONS``.
+        bias), with the rest fit's ``lam``; 0 keeps the plain Eq. 6 axis. Default
+        ``tolerances.TORSION_BIAS_CORRECTIONS``, or on a clean, densely meshed circular wall
+        (:func:`_clean_dense_wall`) corrections with the rest fit's final weight (``final_lam``) until
+        they converge, at most ``tolerances.TORSION_CLEAN_CORRECTIONS``.
 
     Examples
     --------
@@ -192,6 +194,9 @@ class TorsionMeter:
         self.smoothing = tol.TORSION_SMOOTHING if smoothing is None else float(smoothing)
         self.correct_bias = tol.TORSION_BIAS_CORRECTIONS if correct_bias is None else int(correct_bias)
         self.lam = rest.lam  # Eq. 2's lambda of the rest fit, for Eq. 6
+        # a clean, dense circular wall: its corrections with the rest fit's final weight, to their convergence
+        self._converge = correct_bias is None and _clean_dense_wall(rest)
+        self._lam_corr = self.lam
         K = len(rest.s)
         self.K = K
         self.n_bins = tol.TORSION_BINS_PER_NODE * K
@@ -227,18 +232,24 @@ class TorsionMeter:
         self._length_scale = rest.length / rest_axis.length
 
     def _recover_axis(self, V):
-        """Eq. 6 with the rest correspondence, then the circle-fit correction."""
+        """Eq. 6 with the rest correspondence, then the circle-fit corrections: ``correct_bias`` of them, or on a
+        clean, dense circular wall with the rest fit's final weight until they converge (:func:`_converged`)."""
         nodes = self._eq6.solve(np.asarray(self.BtW @ V))
         axis = Axis(nodes)
         sub = self._sub
         Vs = V[sub]
-        for _ in range(self.correct_bias):
+        steps = []
+        for _ in range(tol.TORSION_CLEAN_CORRECTIONS if self._converge else self.correct_bias):
             s = self._map_s(axis, nodes, sub)
             local, jac = local_coords(axis, Vs, s)
             w = self.area[sub] / np.clip(jac, tol.GC_MIN_STRETCH, None)
             _, frn = axis.at(self._node_s(axis, nodes))
-            nodes = nodes + circle_fit_correction(frn, nodes, s, local, w, self.lam, self.rscale, pin_ends=False)
+            corr = circle_fit_correction(frn, nodes, s, local, w, self._lam_corr, self.rscale, pin_ends=False)
+            nodes = nodes + corr
             axis = Axis(nodes)
+            steps.append(float(np.linalg.norm(corr, axis=1).max()) / self.rscale)
+            if self._converge and _converged(steps):
+                break
         return axis, nodes
 
     def _node_s(self, axis, nodes):
@@ -337,6 +348,25 @@ class TorsionMeter:
             axis_scale=self.rscale,
             smoothing_residual=_smoothing_residual(spl, sb, ab),
         )
+
+
+def _clean_dense_wall(rest):
+    """Whether rest fit ``rest`` is of a clean, densely meshed circular wall: its final circle fit lowered Eq. 2's
+    weight to at most ``GC_REFINE_LAMBDA`` of ``lam`` (:func:`vesselgp.fit.data_lambda`: scatter about its circles
+    under 0.7 % of the radius) and it has at least ``GC_SPARSE_VERTICES`` data vertices per axis segment (a sparse
+    ring wall's corrections with the lower weight ran away: the thin XCAT line swept 8 around)."""
+    if rest.final_lam is None or rest.final_lam > tol.GC_REFINE_LAMBDA * rest.lam:
+        return False
+    n_data = np.count_nonzero((rest.vertex_weight > 0) & np.isfinite(rest.vertex_s))
+    return n_data >= tol.GC_SPARSE_VERTICES * (len(rest.s) - 1)
+
+
+def _converged(steps):
+    """Whether the recovery's corrections (their largest node moves, radii) have converged: the last under
+    ``GC_CONVERGENCE``, or the next one predicted from the last two (``step^2 / previous``, contracting) under it."""
+    if steps[-1] < tol.GC_CONVERGENCE:
+        return True
+    return len(steps) > 1 and steps[-1] < steps[-2] and steps[-1] ** 2 / steps[-2] < tol.GC_CONVERGENCE
 
 
 def _smoothing_residual(spl, sb, ab):
