@@ -32,6 +32,19 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    # --- issue #47 (2026-12-07, night): the rays' face grid looked up by the queries' cells
+    "inside_grid_pairs_every_face": (
+        "vesselgp/inside.py",
+        "        hit = cells[at] == self.key\n",
+        "        hit = np.abs(cells[at] - self.key) <= 1\n",
+        ["tests/test_inside_grid.py"],
+    ),
+    "inside_grid_pairs_first_query_only": (
+        "vesselgp/inside.py",
+        "        n = many[at]\n",
+        "        n = np.minimum(many[at], 1)\n",
+        ["tests/test_inside_grid.py"],
+    ),
     # --- issue #48 (2026-12-07, night): the smoothing's residual and the converged recovery of a dense wall
     "torsion_residual_all_bins": (
         "vesselgp/torsion.py",

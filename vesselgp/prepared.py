@@ -142,7 +142,7 @@ class PreparedMesh:
     @cached_property
     def winding(self):
         """SurfaceWinding: the closed surface every axis of this mesh is checked against (built once)."""
-        return SurfaceWinding(self.V, self.F, self.topology.boundary_loops)
+        return SurfaceWinding(self.V, self.F, self.topology.boundary_loops, coherent=self.topology.is_coherent)
 
     @cached_property
     def voronoi(self):
