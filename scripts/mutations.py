@@ -32,6 +32,31 @@ ROOT = Path(__file__).resolve().parent.parent
 
 #: name -> (file, exact source, replacement, tests expected to catch it)
 MUTATIONS = {
+    # --- issue #48 (2026-12-07, night): a fit on the caller's nodes freed of Eq. 2's pull, or the pull said
+    "pull_free_never": (
+        "vesselgp/fit.py",
+        "    if not it.converged or _eq2_pull(gc, it, rscale) <= tol.GC_PULL_WARN:\n        return gc, it\n",
+        "    return gc, it\n",
+        ["tests/test_pull_free.py"],
+    ),
+    "pull_free_limit_loose": (
+        "vesselgp/fit.py",
+        "    if not it.converged or _eq2_pull(gc, it, rscale) <= tol.GC_PULL_WARN:",
+        "    if not it.converged or _eq2_pull(gc, it, rscale) <= 1.02 * tol.GC_PULL_WARN:",
+        ["tests/test_pull_free.py"],
+    ),
+    "pull_unsaid": (
+        "vesselgp/fit.py",
+        "    if pull > tol.GC_PULL_WARN:\n        log.warning(\"Eq. 2's weight",
+        "    if pull > 10 * tol.GC_PULL_WARN:\n        log.warning(\"Eq. 2's weight",
+        ["tests/test_pull_free.py"],
+    ),
+    "pull_free_on_defaults": (
+        "vesselgp/fit.py",
+        "    if given is not None:\n        gc, it = _free_of_pull(",
+        "    if True:\n        gc, it = _free_of_pull(",
+        ["tests/test_pull_free.py"],
+    ),
     # --- issue #47 (2026-12-07, night): the rays' face grid looked up by the queries' cells
     "inside_grid_pairs_every_face": (
         "vesselgp/inside.py",

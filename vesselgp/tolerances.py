@@ -86,6 +86,14 @@ GC_REFINE_GROWING = 3
 #: ... and kept only where it moved the axis by more than this many radii (its nodes farthest from the first
 #: axis): on the synthetic trees' straight branches it moved 1e-4 radii and only the node count changed.
 GC_REFINE_MIN_MOVE = 3e-4
+#: A fit on nodes or a weight the caller gave (n_nodes, lam) whose Eq. 2 pull at its fixed point (lam times the
+#: largest fourth difference of its nodes, vesselgp.fit._second_difference_pull; on swept real lines and synthetic
+#: tubes with exact truth 0.3-2 times the axis's worst error) exceeds this many radii is fitted once more with
+#: Eq. 2's weight on the step only (pull=False), kept where that converges and passes the checks; where it does
+#: not, the fit is answered with a WARNING naming the pull (issue #48: the 2.5:1 vein on 58 nodes, the old
+#: refusal's advice, 2.6 % r mean and 13.9 worst off its line, silent; 0.08 / 0.75 now). Default fits read at most
+#: 0.016 (their clean walls are refined, their sparse and refused walls take pull=False already).
+GC_PULL_WARN = 0.03
 #: The first axis is sampled this many times per node spacing to measure that move (a chord's sagitta there is
 #: under 1e-5 radii in a bend of curvature x radius 0.7).
 GC_REFINE_MOVE_SAMPLES = 64

@@ -1,0 +1,96 @@
+"""A fit on the caller's nodes or weight is freed of Eq. 2's pull where it pulls hard, or says so (issue #48).
+
+Eq. 2's weight pulls an axis towards its chord by about lambda x curvature x spacing^2, growing with the fourth power
+of the node spacing; the refusal of the 2.5:1 vein advised fewer nodes, and on them it was answered 2.6 % r mean,
+13.9 % r worst off its exact line, silently. Truth: exact swept tubes (their spline), never the fit.
+"""
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+
+from _data import needs_real, repo_module
+from _reference import swept_axis_errors
+
+import vesselgp
+from vesselgp import tolerances as tol
+from vesselgp.fit import _second_difference_pull
+from vesselgp.synthetic import synthetic_vessel
+
+_WARNS = "holds the fitted axis about"
+
+
+@pytest.fixture(scope="module")
+def elliptic_arch():
+    """The synthetic aortic arch (radius 13 mm) with 2:1 elliptic sections, 32 around, remeshed: a wall that keeps
+    Eq. 2's full weight (not circular), fitted on 18 nodes (the default's half)."""
+    return synthetic_vessel("aortic_arch", radius=13.0, ellipticity=0.5, n_around=32, seed=11)
+
+
+def test_a_hard_pull_on_given_nodes_is_fitted_away(elliptic_arch, caplog):
+    """On 18 nodes Eq. 2 holds the axis about 0.07 radii off (2.3 % r mean, 5.1 worst before); fitted once more with
+    its weight on the step only it is 0.21 % r mean and 1.1 worst (bounds 1.5x), no WARNING, the iterations of
+    both fits counted."""
+    ves = elliptic_arch
+    with caplog.at_level(logging.WARNING, logger="vesselgp"):
+        gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F, n_nodes=18)
+    e = swept_axis_errors(ves, gc)
+    assert e.mean() <= 1.5 * 0.21 and e.max() <= 1.5 * 1.1, (e.mean(), e.max())
+    assert not any(_WARNS in r.getMessage() for r in caplog.records)
+
+
+@pytest.mark.parametrize("side", [0.99, 1.01])
+def test_the_pull_limit_at_its_edge(elliptic_arch, monkeypatch, side):
+    """GC_PULL_WARN at 0.99 / 1.01 of the 18-node fit's own pull (read with the stage off): fitted once more just
+    below it (the axis within 1.1 % r of its line), kept as it was just above (5 % r off, and named in the
+    WARNING)."""
+    ves = elliptic_arch
+    monkeypatch.setattr(tol, "GC_PULL_WARN", np.inf)
+    first = vesselgp.fit_generalized_cylinder(ves.V, ves.F, n_nodes=18)
+    ends = vesselgp.vessel_ends(ves.V, ves.F)
+    rscale = 0.5 * (ends[first.ends[0]].radius + ends[first.ends[1]].radius)  # the fit's radius scale
+    pull = first.final_lam * _second_difference_pull(first.centers, (True, True), rscale)
+    assert swept_axis_errors(ves, first).max() > 3.0  # the pull's own error: the test can fail
+    monkeypatch.setattr(tol, "GC_PULL_WARN", side * pull)
+    gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F, n_nodes=18)
+    assert (swept_axis_errors(ves, gc).max() < 1.5 * 1.1) == (side < 1)
+
+
+def test_the_defaults_are_not_touched(elliptic_arch):
+    """On the default nodes nothing changes: the fit with the stage's limit at zero is the same bit for bit (the
+    stage is for the caller's nodes or weight only)."""
+    ves = elliptic_arch
+    a = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(tol, "GC_PULL_WARN", 0.0)
+        b = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    assert np.array_equal(a.centers, b.centers) and a.iterations == b.iterations
+
+
+rs = repo_module("real_shapes")
+
+
+@needs_real(rs.CASES["renal"].mesh)
+def test_a_pull_that_cannot_be_fitted_away_is_said(caplog):
+    """The real renal line swept with circles, on 15 nodes (the default's half): the fit without the pull does not
+    converge, so the first stands, 5.4 % r mean and 14 % r worst off its line, and the WARNING says Eq. 2 holds it
+    about 0.1 radii off: the figure it gives is within a factor 3 of the worst error against the exact line."""
+    ves = rs.case_vessel("renal")
+    with caplog.at_level(logging.WARNING, logger="vesselgp"):
+        gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F, n_nodes=15)
+    said = [r.getMessage() for r in caplog.records if _WARNS in r.getMessage()]
+    assert len(said) == 1 and "n_nodes given" in said[0]
+    pull = float(said[0].split(_WARNS)[1].split()[0])
+    worst = swept_axis_errors(ves, gc).max() / 100
+    assert worst > 0.05 and pull / 3 <= worst <= 3 * pull, (pull, worst)
+
+
+def test_the_sparse_helix_on_twelve_nodes_is_answered_on_its_line():
+    """The helix (radius 2.5) swept 8 around on 12 nodes, refused before as 0.41 radii off its wall's centre (its
+    axis 0.42 radii off its exact line, tests/test_wall_circles.py): fitted once more without Eq. 2's pull it is
+    answered 2.0 % r from its line at worst (bound 1.5x)."""
+    ves = synthetic_vessel("helix", radius=2.5, n_around=8, remesh=False)
+    gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F, n_nodes=12)
+    assert swept_axis_errors(ves, gc).max() <= 1.5 * 2.0
