@@ -99,7 +99,8 @@ batch row (vesselgp batch; batch.METRICS, BASE_COLUMNS, the row JSON)
         ........................... test_batch_mesh_row_is_the_tapered_left_handed_helix_in_mm
         (a tree row: test_batch.py::test_a_tree_row_reports_its_main_path_against_the_true_centre_lines)
     mesh: frenet_torsion_abs_mean/max ... elsewhere: test_batch.py (right-handed helix), test_reports_truth.py
-    torsion: n_vertices, total_twist_deg, energy, max_abs_dalpha_deg, length, twist_per_length_deg_per_cm
+    torsion: n_vertices, total_twist_deg, energy, max_abs_dalpha_deg, length, twist_per_length_deg_per_cm,
+        smoothing_residual_deg
         ........................... test_batch_torsion_row_is_the_non_linear_twist_on_the_deformed_axis
     twist: n_landmarks, total_twist_deg, length, mean_twist_per_length_deg_per_cm, n_unmatched
         ........................... test_batch_twist_row_counts_the_missing_landmark_and_measures_scan_a
@@ -1052,6 +1053,10 @@ def test_batch_torsion_row_is_the_non_linear_twist_on_the_deformed_axis(cohort, 
     assert r["max_abs_dalpha_deg"] == pytest.approx(np.degrees(2 * PHI), rel=0.04)
     assert r["length"] == pytest.approx(SCALE * REST_LENGTH, rel=0.02)
     assert r["twist_per_length_deg_per_cm"] == pytest.approx(100.0 / (SCALE * REST_LENGTH) * 10.0, rel=0.03)
+    # the smooth PHI s^2 leaves its bins on the smoothed profile: under the 0.5 degrees of the WARNING, and no more
+    # than the profile command's own reading of the same pair (the ends reversed: the same bins mirrored)
+    assert 0.0 <= r["smoothing_residual_deg"] < 0.5
+    assert r["smoothing_residual_deg"] == pytest.approx(torsion["rev"]["smoothing_residual_deg"], abs=0.05)
     det = cohort["recs"][1]["detail"]
     s = np.array(det["s"])
     assert np.abs(np.array(det["alpha_deg"]) - _alpha_true_deg("rev", s)).max() < 1.0

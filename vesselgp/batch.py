@@ -77,7 +77,7 @@ METRICS = {
              "total_branch_length", "tortuosity", "curvature_mean", "curvature_max", "frenet_torsion_abs_mean",
              "frenet_torsion_abs_max"),
     "torsion": ("n_vertices", "total_twist_deg", "energy", "max_abs_dalpha_deg", "length",
-                "twist_per_length_deg_per_cm"),
+                "twist_per_length_deg_per_cm", "smoothing_residual_deg"),
     "twist": ("n_landmarks", "total_twist_deg", "length", "mean_twist_per_length_deg_per_cm", "n_unmatched"),
 }
 #: Every column vesselgp adds to results.csv: a manifest column may not have one of these names.
@@ -299,7 +299,8 @@ def _torsion_job(rest, deformed, ends, units):
     prof = measure_torsion(V0, V1, F0, ends=ends)
     m = {"n_vertices": len(V0), "total_twist_deg": math.degrees(prof.total_twist), "energy": prof.energy,
          "max_abs_dalpha_deg": float(np.degrees(np.max(np.abs(prof.dalpha)))), "length": prof.length,
-         "twist_per_length_deg_per_cm": math.degrees(prof.twist_per_length) * 10.0}
+         "twist_per_length_deg_per_cm": math.degrees(prof.twist_per_length) * 10.0,
+         "smoothing_residual_deg": math.degrees(prof.smoothing_residual)}  # a worker's WARNING is not the user's
     return m, {"s": prof.s, "alpha_deg": np.degrees(prof.alpha)}
 
 
