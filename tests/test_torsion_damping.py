@@ -162,3 +162,26 @@ def test_the_dense_wall_gate_at_its_weight_edge(dense_arc, monkeypatch, side):
     assert gc.final_lam < gc.lam
     monkeypatch.setattr(tol, "GC_REFINE_LAMBDA", side * gc.final_lam / gc.lam)
     assert vesselgp.TorsionMeter(ves.V, ves.F, gc)._converge == (side == 1.0)
+
+
+@pytest.fixture(scope="module")
+def paper_join():
+    from vesselgp import Frame, JoinProblem
+    from vesselgp.synthetic import paper_case
+
+    c = paper_case(1, resolution=0.25, pre_rotation=0.5)
+    return JoinProblem(c.V, c.F, c.fixed, c.moving, Frame(c.target_origin, c.target_tangent, c.target_normal))
+
+
+@pytest.mark.parametrize("side", [0.99, 1.01])
+def test_the_join_says_a_damped_twist_at_its_optimum(paper_join, caplog, monkeypatch, side):
+    """minimize_torsion judges its optimum's profile as measure_torsion does: TORSION_DAMPED at 0.99 / 1.01 of the
+    paper's case 1 optimum's own residual, warned just below, silent just above (the same optimum either way)."""
+    res = vesselgp.minimize_torsion(paper_join)
+    monkeypatch.setattr(tol, "TORSION_DAMPED", side * res.profile.smoothing_residual)
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="vesselgp"):
+        again = vesselgp.minimize_torsion(paper_join)
+    assert again.angle == res.angle
+    said = [r.getMessage() for r in caplog.records if _WARNS in r.getMessage()]
+    assert bool(said) == (side < 1) and all("least-torsion angle" in m for m in said)

@@ -33,7 +33,7 @@ from .errors import EndsError, FrameError, MismatchError, OptimizationError
 from .fit import fit_generalized_cylinder
 from .mesh import stitch
 from .rotations import rotate, wrap_angle
-from .torsion import TorsionMeter, TorsionProfile
+from .torsion import TorsionMeter, TorsionProfile, warn_damped
 
 log = logging.getLogger(__name__)
 
@@ -401,6 +401,7 @@ def minimize_torsion(problem, *, xtol=None, max_evals=None, algorithm="LN_BOBYQA
     name = _NLOPT_NAMES.get(status, str(status))
     log.info("minimize_torsion: angle %.4f deg, energy %.4g, %d evaluations, %s%s",
              np.degrees(best), E[k], len(A), name, " (after a grid scan)" if grid_scan else "")
+    warn_damped(prof, problem.meter.smoothing, "the twist at the least-torsion angle")
     zero = float(problem.zero_twist_angle)
     return JoinResult(angle=best, energy=float(E[k]), V=X, profile=prof, angles=A, energies=E,
                       status=status, status_name=name, n_evals=len(A), algorithm=str(algorithm),

@@ -449,10 +449,18 @@ def measure_torsion(V_rest, V_deformed, F=None, rest=None, *, ends=None, smoothi
     if F.max() >= len(V_def):
         raise MismatchError("faces index vertices the deformed mesh does not have")
     prof = TorsionMeter(V_rest, F, rest, ends=ends, smoothing=smoothing)(V_def)
+    warn_damped(prof, smoothing)
+    return prof
+
+
+def warn_damped(prof, smoothing=None, what="the measured twist"):
+    """Log a WARNING where profile ``prof``'s Eq. 7 bin means depart from its smoothed alpha by more than
+    ``tolerances.TORSION_DAMPED`` (:attr:`TorsionProfile.smoothing_residual`): alpha may be off by as much
+    (:func:`measure_torsion`; :func:`vesselgp.minimize_torsion` of its optimum's profile). ``smoothing``: the
+    meter's, named in the advice (default ``tolerances.TORSION_SMOOTHING``)."""
     if prof.smoothing_residual > tol.TORSION_DAMPED:
-        log.warning("the measured twist departs from its smoothed profile by up to %.2g degrees (at most %.2g "
-                    "expected): alpha may be off by as much; it varies faster than the smoothing length (smoothing %g "
-                    "node spacings: pass a smaller smoothing, e.g. 0.3) or the wall is too sparse for its bends",
+        log.warning("%s departs from its smoothed profile by up to %.2g degrees (at most %.2g expected): alpha may "
+                    "be off by as much; it varies faster than the smoothing length (smoothing %g node spacings: pass "
+                    "a smaller smoothing, e.g. 0.3) or the wall is too sparse for its bends", what,
                     np.degrees(prof.smoothing_residual), np.degrees(tol.TORSION_DAMPED),
                     tol.TORSION_SMOOTHING if smoothing is None else smoothing)
-    return prof
