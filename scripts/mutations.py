@@ -35,14 +35,14 @@ MUTATIONS = {
     # --- issue #48 (2026-12-07, night): a fit on the caller's nodes freed of Eq. 2's pull, or the pull said
     "pull_free_never": (
         "vesselgp/fit.py",
-        "    if not it.converged or _eq2_pull(gc, it, rscale) <= tol.GC_PULL_WARN:\n        return gc, it\n",
+        "    if not it.converged or pull <= tol.GC_PULL_WARN:\n        return gc, it\n",
         "    return gc, it\n",
         ["tests/test_pull_free.py"],
     ),
     "pull_free_limit_loose": (
         "vesselgp/fit.py",
-        "    if not it.converged or _eq2_pull(gc, it, rscale) <= tol.GC_PULL_WARN:",
-        "    if not it.converged or _eq2_pull(gc, it, rscale) <= 1.02 * tol.GC_PULL_WARN:",
+        "    if not it.converged or pull <= tol.GC_PULL_WARN:",
+        "    if not it.converged or pull <= 1.02 * tol.GC_PULL_WARN:",
         ["tests/test_pull_free.py"],
     ),
     "pull_unsaid": (

@@ -223,29 +223,19 @@ def main(argv=None):
                     "(all when none is named) instead of the single tubes")
     ap.add_argument("--torsion", action="store_true", help="measure imposed twists on the cases instead")
     a = ap.parse_args(argv)
-    rows = []
     if a.torsion:
-        for name in a.case or list(rs.CASES):
-            rows.append(measure_torsion(name))
-            print(json.dumps(rows[-1]), flush=True)
-        if a.json:
-            a.json.write_text(json.dumps(rows, indent=1))
-        return 0
-    if a.tree is not None:
-        for name in a.tree or list(rs.NETWORK_TREES):
-            rows.append(measure_tree(name))
-            print(json.dumps(rows[-1]), flush=True)
-        if a.json:
-            a.json.write_text(json.dumps(rows, indent=1))
-        return 0
-    for name in a.case or list(rs.CASES):
-        row = measure(name, a.vmtk, a.remesh)
-        rows.append(row)
-        print(json.dumps(row), flush=True)
+        names, one = a.case or list(rs.CASES), measure_torsion
+    elif a.tree is not None:
+        names, one = a.tree or list(rs.NETWORK_TREES), measure_tree
+    else:
+        names, one = a.case or list(rs.CASES), (lambda name: measure(name, a.vmtk, a.remesh))
+    rows = []
+    for name in names:
+        rows.append(one(name))
+        print(json.dumps(rows[-1]), flush=True)
     if a.json:
         a.json.write_text(json.dumps(rows, indent=1))
     return 0
-
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -243,7 +243,7 @@ def imposed_twist_errors(prof, gc, truth, alpha, dalpha):
     """A measured torsion profile ``prof`` against the twist ``alpha`` (of the exact centre line's normalised arc
     length, derivative ``dalpha``) imposed on a swept tube whose fit ``gc`` may run from either end: the worst
     alpha error in degrees over the interior 90 % of s, and the Eq. 8 energy's error in % of the exact
-    ``int alpha'^2 ds``."""
+    ``int alpha'^2 ds`` (None for a twist without energy, whose relative error is undefined)."""
     reverse = np.linalg.norm(gc.centers[0] - truth.centers[0]) > np.linalg.norm(gc.centers[0] - truth.centers[-1])
     s_true = 1 - prof.s if reverse else prof.s
     a_true = alpha(s_true) - alpha(s_true[0])
@@ -253,4 +253,4 @@ def imposed_twist_errors(prof, gc, truth, alpha, dalpha):
     err = float(np.degrees(np.abs(prof.alpha - a_true)[inner].max()))
     s = np.linspace(0, 1, 20001)
     e_true = float(np.trapezoid(dalpha(s) ** 2, s))
-    return err, 100.0 * (prof.energy - e_true) / e_true
+    return err, (100.0 * (prof.energy - e_true) / e_true if e_true > 0 else None)

@@ -11,7 +11,7 @@ import pytest
 
 from _data import needs_real, repo_module
 from _docs import figure, table
-from _reference import polyline_distance
+from _reference import SWEPT_TWISTS, imposed_twist_errors, polyline_distance
 
 import vesselgp
 from vesselgp.synthetic import deform_synthetic
@@ -162,26 +162,11 @@ def test_torsion_on_the_swept_coronary_is_the_imposed_twist(twist):
     0.645) and the energy within its 0.75 % (-> 1.125 %)."""
     ves = rs.case_vessel("coronary")
     gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
-    if twist == "uniform":
-        alpha, dalpha = (lambda s: 1.2 * np.asarray(s)), (lambda s: np.full_like(np.asarray(s, float), 1.2))
-    else:
-        alpha = lambda s: np.pi * 0.5 * (1 - np.cos(np.pi * np.clip((np.asarray(s) - 0.3) / 0.4, 0, 1)))  # noqa: E731
-        dalpha = lambda s: np.where((np.asarray(s) > 0.3) & (np.asarray(s) < 0.7),  # noqa: E731
-                                    np.pi * 0.5 * np.pi / 0.4 * np.sin(np.pi * (np.asarray(s) - 0.3) / 0.4), 0.0)
-    Vd = deform_synthetic(ves, twist=alpha)
-    prof = vesselgp.measure_torsion(ves.V, Vd, ves.F, rest=gc)
-    t = ves.truth
-    reverse = np.linalg.norm(gc.centers[0] - t.centers[0]) > np.linalg.norm(gc.centers[0] - t.centers[-1])
-    s_true = 1 - prof.s if reverse else prof.s
-    a_true = alpha(s_true) - alpha(s_true[0])
-    if reverse:
-        a_true = -a_true
-    inner = (prof.s > 0.05) & (prof.s < 0.95)
-    err = np.degrees(np.abs(prof.alpha - a_true)[inner].max())
+    alpha, dalpha = SWEPT_TWISTS[twist]
+    prof = vesselgp.measure_torsion(ves.V, deform_synthetic(ves, twist=alpha), ves.F, rest=gc)
+    err, energy = imposed_twist_errors(prof, gc, ves.truth, alpha, dalpha)
     assert err <= 0.645, f"{twist}: alpha off by {err:.3f} deg"
-    s = np.linspace(0, 1, 20001)
-    e_true = float(np.trapezoid(dalpha(s) ** 2, s))
-    assert abs(prof.energy - e_true) <= 0.01125 * e_true, (prof.energy, e_true)
+    assert abs(energy) <= 1.125, energy
 
 
 _TREES = table("accuracy.md", "network tree", "real mesh", "vertices")

@@ -585,8 +585,8 @@ def _answered(gc, it, data, checking, given, *, L0, lam, mu, max_iter):
     if given is not None:
         gc, it = _free_of_pull(gc, it, data, checking, L0=L0, lam=lam, mu=mu, max_iter=max_iter)
     gc = _on_its_wall(gc, it, data, checking[:4], L0=L0, lam=lam, mu=mu, max_iter=max_iter)
-    if given is not None and not it.free:
-        _warn_pull(gc, checking[3], given)
+    if given is not None:
+        _warn_pull(gc, it, checking[3], given)
     return gc
 
 
@@ -686,8 +686,7 @@ def _checked_or_again(it, start, data, checking, *, lam, mu, max_iter, default_n
     pm, e0, e1, rscale, whole = checking
 
     def checked(state):
-        cyl = _cylinder_of(state, V, sub, topo, end_region, area, mu, lam, end_ids, normal)
-        return _checked(cyl, pm, e0, e1, whole=whole, rscale=rscale, warn_centre=False)
+        return _checked_state(state, data, checking, lam=lam, mu=mu)
 
     try:
         return checked(it), it
@@ -709,6 +708,15 @@ def _checked_or_again(it, start, data, checking, *, lam, mu, max_iter, default_n
         return gc, again
 
 
+def _checked_state(state, data, checking, *, lam, mu):
+    """The cylinder of fixed point ``state`` on ``data`` (:func:`_cylinder_of`), checked against its mesh
+    (:func:`_checked`; ``checking``: the mesh, its ends, the radius scale, whether the fit covers the whole mesh)."""
+    V, sub, topo, end_region, area, end_ids, normal = data
+    pm, e0, e1, rscale, whole = checking
+    cyl = _cylinder_of(state, V, sub, topo, end_region, area, mu, lam, end_ids, normal)
+    return _checked(cyl, pm, e0, e1, whole=whole, rscale=rscale, warn_centre=False)
+
+
 def _eq2_pull(gc, it, rscale):
     """Eq. 2's pull at fixed point ``it`` of cylinder ``gc`` in radii (:func:`_second_difference_pull` times the
     final weight; 0 for a fit with Eq. 2's weight on the step only, which pulls nothing)."""
@@ -725,31 +733,31 @@ def _free_of_pull(gc, it, data, checking, *, L0, lam, mu, max_iter):
     Eq. 2's pull grows with the fourth power of the node spacing: the 2.5:1 flattened vein swept along the real
     coronary's line, on 58 nodes given (the default's half), read 0.068 radii and ran 2.6 % r mean and 13.9 % r
     worst off its exact line, silently; fitted once more without the pull, 0.08 / 0.75 (issue #48)."""
-    V, sub, topo, end_region, area, end_ids, normal = data
-    pm, e0, e1, rscale, whole = checking
-    if not it.converged or _eq2_pull(gc, it, rscale) <= tol.GC_PULL_WARN:
+    V, sub, _, end_region, area, _, normal = data
+    rscale = checking[3]
+    pull = _eq2_pull(gc, it, rscale)
+    if not it.converged or pull <= tol.GC_PULL_WARN:
         return gc, it
     free = fixed_point(it.nodes, it.s, V[sub], area[sub], end_region[sub], rscale, L0, lam=lam, mu=mu,
                        max_iter=max_iter, initial_normal=normal, pull=False)
     if not free.converged:
         log.info("the axis on the given nodes, fitted again without Eq. 2's pull, did not converge; kept as fitted")
         return gc, it
-    cyl = _cylinder_of(free, V, sub, topo, end_region, area, mu, lam, end_ids, normal)
     try:
-        cyl = _checked(cyl, pm, e0, e1, whole=whole, rscale=rscale, warn_centre=False)
+        cyl = _checked_state(free, data, checking, lam=lam, mu=mu)
     except NotTubularError as err:
         log.info("the axis on the given nodes, fitted again without Eq. 2's pull, was refused (%s); kept as fitted",
                  str(err).split(";")[0])
         return gc, it
     log.info("Eq. 2's weight held the axis on the given nodes about %.2g radii off its wall's fixed point; fitted "
-             "again with the weight on the step only", _eq2_pull(gc, it, rscale))
+             "again with the weight on the step only", pull)
     return cyl, replace(free, count=it.count + free.count)
 
 
-def _warn_pull(gc, rscale, given):
+def _warn_pull(gc, it, rscale, given):
     """WARNING where the fit on the caller's nodes or weight still has Eq. 2 pulling its axis more than
     ``GC_PULL_WARN`` radii from its wall's own fixed point (:func:`_free_of_pull` could not remove it)."""
-    pull = gc.final_lam * _second_difference_pull(gc.centers, (True, True), rscale)
+    pull = _eq2_pull(gc, it, rscale)
     if pull > tol.GC_PULL_WARN:
         log.warning("Eq. 2's weight (lam %.3g on %d nodes) holds the fitted axis about %.2g radii from where its "
                     "wall alone would put it (%s): the axis may be that far off its centre in its bends; leave "
