@@ -35,15 +35,15 @@ MUTATIONS = {
     # --- issue #48 (2026-12-07, night): a fit on the caller's nodes freed of Eq. 2's pull, or the pull said
     "pull_free_never": (
         "vesselgp/fit.py",
-        "    if not it.converged or pull <= tol.GC_PULL_WARN:\n        return gc, it\n",
+        "    if not it.converged or pull <= limit:\n        return gc, it\n",
         "    return gc, it\n",
         ["tests/test_pull_free.py"],
     ),
     "pull_free_limit_loose": (
         "vesselgp/fit.py",
-        "    if not it.converged or pull <= tol.GC_PULL_WARN:",
-        "    if not it.converged or pull <= 1.02 * tol.GC_PULL_WARN:",
-        ["tests/test_pull_free.py"],
+        "    if not it.converged or pull <= limit:",
+        "    if not it.converged or pull <= 1.02 * limit:",
+        ["tests/test_pull_free.py", "tests/test_sections.py"],
     ),
     "pull_unsaid": (
         "vesselgp/fit.py",
@@ -53,9 +53,76 @@ MUTATIONS = {
     ),
     "pull_free_on_defaults": (
         "vesselgp/fit.py",
-        "    if given is not None:\n        gc, it = _free_of_pull(",
+        "    if given is not None or it.elliptic:\n        gc, it = _free_of_pull(",
         "    if True:\n        gc, it = _free_of_pull(",
         ["tests/test_pull_free.py"],
+    ),
+    # --- issue #48 (2026-12-08): elliptic sections, their second harmonic in Eq. 2's circle fit
+    "harmonic_never": (
+        "vesselgp/axis.py",
+        "    if elliptic is None or not np.any(elliptic):\n        return S, R\n",
+        "    return S, R\n",
+        ["tests/test_sections.py"],
+    ),
+    "harmonic_sign": (
+        "vesselgp/axis.py",
+        "    R[on] -= np.einsum(\"kmi,km->ki\", CiB, r)",
+        "    R[on] += np.einsum(\"kmi,km->ki\", CiB, r)",
+        ["tests/test_sections.py"],
+    ),
+    "harmonic_one_term": (
+        "vesselgp/axis.py",
+        "    H = ((x * x - y * y) * sw, 2.0 * x * y * sw)",
+        "    H = ((x * x - y * y) * sw, 0.0 * x * y * sw)",
+        ["tests/test_sections.py"],
+    ),
+    "harmonic_nan_rows": (
+        "vesselgp/axis.py",
+        "    on = np.flatnonzero(C[:, 0] + C[:, 2] > 0)",
+        "    on = np.arange(len(C))",
+        ["tests/test_sections.py"],
+    ),
+    "elliptic_amplitude_edge": (
+        "vesselgp/sections.py",
+        "        return self.amplitude > tol.GC_ELLIPTIC and",
+        "        return self.amplitude > 1.02 * tol.GC_ELLIPTIC and",
+        ["tests/test_sections.py"],
+    ),
+    "elliptic_share_unchecked": (
+        "vesselgp/sections.py",
+        " and self.explained <= tol.GC_ELLIPTIC_RESIDUAL",
+        "",
+        ["tests/test_sections.py"],
+    ),
+    "elliptic_share_circle": (
+        "vesselgp/sections.py",
+        "    _, e_circle, _ = _segment_conics(j, x, y, ww, K, centred=True, harmonic=False)",
+        "    _, e_circle, _ = _segment_conics(j, x, y, ww, K, centred=False, harmonic=False)",
+        ["tests/test_sections.py"],
+    ),
+    "elliptic_amplitude_uncentred": (
+        "vesselgp/sections.py",
+        "    coef, e_conic, count = _segment_conics(j, x, y, ww, K, centred=True)",
+        "    coef, e_conic, count = _segment_conics(j, x, y, ww, K, centred=False)\n    coef = np.c_[coef[:, :1], coef]",
+        ["tests/test_sections.py"],
+    ),
+    "elliptic_scatter_circles": (
+        "vesselgp/fit.py",
+        "            rel = (conic_residual if it.elliptic else _rel_residual)(s[r], local[r], w[r], it.radii)",
+        "            rel = _rel_residual(s[r], local[r], w[r], it.radii)",
+        ["tests/test_sections.py"],
+    ),
+    "elliptic_meter_circles": (
+        "vesselgp/torsion.py",
+        "                                         elliptic=self._elliptic)",
+        "                                         elliptic=False)",
+        ["tests/test_sections.py"],
+    ),
+    "elliptic_state_lost": (
+        "vesselgp/fit.py",
+        "                      elliptic=it.elliptic)",
+        "                      elliptic=None)",
+        ["tests/test_sections.py"],
     ),
     # --- issue #47 (2026-12-07, night): the rays' face grid looked up by the queries' cells
     "inside_grid_pairs_every_face": (

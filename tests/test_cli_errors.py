@@ -83,8 +83,8 @@ def test_refusals_name_commands_and_options_not_python(tmp_path, capsys):
 
     V, F = voxel_faces(bent_occupancy())
     vg.write_mesh(tmp_path / "stair.ply", V, F)
-    helix = synthetic_vessel("helix", radius=lambda s: 1.0 + 0.2 * np.sin(2 * np.pi * s), ellipticity=0.7,
-                             ellipse_angle=0.4, n_around=14, seed=3)  # kinks with the default lam (test_fit)
+    helix = synthetic_vessel("helix", radius=lambda s: 1.0 + 0.2 * np.sin(2 * np.pi * s), ellipticity=0.75,
+                             ellipse_angle=0.4, n_around=12, seed=3)  # kinks with the default lam (test_fit)
     vg.write_mesh(tmp_path / "helix.ply", helix.V, helix.F)
     for args, fragment in [(["fit", tmp_path / "stair.ply"], "vesselgp clean --smooth N"),
                            (["fit", tmp_path / "helix.ply"], "fit a stiffer axis, e.g. --lam 1.0 or --nodes "),

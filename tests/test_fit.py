@@ -415,19 +415,31 @@ def test_grid_cells_number_cubes_as_numpy_unique_does(per_vertex, monkeypatch):
     np.testing.assert_array_equal(cell, truth.ravel())
 
 
+def _sparse_elliptic_helix(ellipticity, n_around):
+    return synthetic_vessel("helix", radius=lambda s: 1.0 + 0.2 * np.sin(2 * np.pi * s), ellipticity=ellipticity,
+                            ellipse_angle=0.4, n_around=n_around, seed=3)
+
+
+def _helix_axis_error(ves, gc):
+    inner = (gc.dense_s > 0.05) & (gc.dense_s < 0.95)
+    return polyline_distance(gc.dense_points[inner], ves.truth.centers).max()
+
+
 def test_a_kinked_fit_of_a_sparse_elliptical_section_raises_and_a_stiffer_axis_fits():
-    """Found in the #16 work: the elliptical (0.7) helix meshed with 14 vertices around (3k vertices,
-    isotropic remesh) makes the fixed point kink at one node (12 % of the radius off the true axis,
-    curvature x radius 1.1-1.4 where a tube allows less than 1). That must raise, not return; the
-    remedy the message names (lam=1.0) fits it within 0.54 % of the radius (docs/method.md)."""
-    ves = synthetic_vessel("helix", radius=lambda s: 1.0 + 0.2 * np.sin(2 * np.pi * s), ellipticity=0.7,
-                           ellipse_angle=0.4, n_around=14, seed=3)
+    """Found in the #16 work: an elliptical helix meshed with few vertices around (isotropic remesh) makes the
+    fixed point kink (curvature x radius over 1 where a tube allows less). That must raise, not return; the remedy
+    the message names (lam=1.0) fits it. Since issue #48's elliptic sections (vesselgp.sections) the 0.7 helix 14
+    around that kinked then (12 % r off) is followed on the defaults within 0.01 % r (measured; 1.5x); a 0.75 helix
+    12 around, its sections' second harmonic under GC_ELLIPTIC, still kinks, and lam=1.0 fits it within 0.69 % r
+    (measured; 1.5x)."""
+    ves = _sparse_elliptic_helix(0.7, 14)
+    assert _helix_axis_error(ves, fit_generalized_cylinder(ves.V, ves.F)) <= FACTOR * 0.0001
+    ves = _sparse_elliptic_helix(0.75, 12)
     with pytest.raises(NotTubularError, match=r"bends tighter than its radius at s = .*lam=1\.0"):
         fit_generalized_cylinder(ves.V, ves.F)
     gc = fit_generalized_cylinder(ves.V, ves.F, lam=1.0)
-    inner = (gc.dense_s > 0.05) & (gc.dense_s < 0.95)
-    d = polyline_distance(gc.dense_points[inner], ves.truth.centers)
-    assert d.max() <= FACTOR * 0.0054, f"axis off by {d.max():.3%} of the radius"
+    d = _helix_axis_error(ves, gc)
+    assert d <= FACTOR * 0.0069, f"axis off by {d:.3%} of the radius"
 
 
 @pytest.mark.parametrize("free", ["first", "last"])

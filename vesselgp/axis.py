@@ -453,13 +453,18 @@ def _segment_sums(j, cols, K):
     return np.stack([np.bincount(j, c, minlength=K - 1) for c in cols], axis=1)
 
 
-def circle_fit_sums(s, local, w, K, rscale, nodeoff=None, total=None):
+def circle_fit_sums(s, local, w, K, rscale, nodeoff=None, total=None, elliptic=None):
     """The data part of :func:`circle_fit_correction`: its 21 products and 6 right-hand sides
     summed per segment, ``S`` (N - 1, 21) and ``R`` (N - 1, 6) with ``N = K``.
 
     For an :class:`AxisStack`, ``K``, ``rscale`` and ``nodeoff`` (the first node of each
     row's axis) are per-row arrays and ``total`` the stack's node count ``N``: axis ``b``'s
     rows are ``nodeoff_b : nodeoff_b + K_b - 1``, the same sums it would have alone.
+
+    ``elliptic`` (a bool, or one per row) gives the rows of an elliptic wall's residual the section's
+    second harmonic, ``- e_1 (x^2 - y^2) - e_2 (2 x y)`` with ``e_1, e_2`` constant over each segment
+    (:mod:`vesselgp.sections`), eliminated per segment (Schur's complement of their 2 x 2 block): the
+    sums keep their shape and the solve is unchanged; rows without it give the same sums, bit for bit.
     """
     j, t = hat(s, K)
     if nodeoff is not None:
@@ -471,11 +476,35 @@ def circle_fit_sums(s, local, w, K, rscale, nodeoff=None, total=None):
     G = [ck * u for ck in c] + [ck * t for ck in c]  # the six, at nodes j and j + 1 (contiguous columns)
     b = (x * x + y * y) * sw
     N = K if total is None else total
-    return (_segment_sums(j, (G[a] * G[c] for a, c in zip(_PAIR_A, _PAIR_B)), N),
-            _segment_sums(j, (g * b for g in G), N))
+    S = _segment_sums(j, (G[a] * G[c] for a, c in zip(_PAIR_A, _PAIR_B)), N)
+    R = _segment_sums(j, (g * b for g in G), N)
+    if elliptic is None or not np.any(elliptic):
+        return S, R
+    return _without_second_harmonic(S, R, j, G, b, np.where(elliptic, sw, 0.0), x, y, N)
 
 
-def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_ends=True):
+def _without_second_harmonic(S, R, j, G, b, sw, x, y, N):
+    """The circle fit's segment sums ``S``, ``R`` with each segment's second harmonic ``e_1, e_2`` (coefficients
+    ``(x^2 - y^2) sw`` and ``2 x y sw``, zero on rows without it) eliminated: ``S - B^T C^-1 B``, ``R - B^T C^-1
+    r`` with ``B`` (2, 6), ``C`` (2, 2) and ``r`` (2,) the segment's sums of their products with the six
+    unknowns', their own and the right-hand side's. A segment with none of those rows is unchanged."""
+    H = ((x * x - y * y) * sw, 2.0 * x * y * sw)
+    B = _segment_sums(j, (h * g for h in H for g in G), N).reshape(-1, 2, 6)
+    C = _segment_sums(j, (H[0] * H[0], H[0] * H[1], H[1] * H[1]), N)
+    r = _segment_sums(j, (h * b for h in H), N)
+    on = np.flatnonzero(C[:, 0] + C[:, 2] > 0)  # segments with rows that carry the harmonic (B = 0 elsewhere)
+    C, B, r = C[on], B[on], r[on]
+    ridge = tol.GC_HARMONIC_RIDGE * (C[:, 0] + C[:, 2])  # a segment whose rows do not determine both terms
+    c00, c01, c11 = C[:, 0] + ridge, C[:, 1], C[:, 2] + ridge
+    det = c00 * c11 - c01 * c01
+    Ci = np.stack([np.stack([c11, -c01], axis=1), np.stack([-c01, c00], axis=1)], axis=1) / det[:, None, None]
+    CiB = Ci @ B  # (n_on, 2, 6)
+    S[on] -= np.einsum("kmi,kmj->kij", B, CiB)[:, _PAIR_A, _PAIR_B]
+    R[on] -= np.einsum("kmi,km->ki", CiB, r)
+    return S, R
+
+
+def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, pin_ends=True, elliptic=None):
     """One linear solve of the area-weighted Kasa circle fit with hat functions in s.
 
     Unknowns per node: centre correction ``(cx, cy)`` in the node frame (U, V)
@@ -492,9 +521,11 @@ def circle_fit_correction(axis_frames_nodes, centers, s, local, w, lam, rscale, 
 
     :func:`circle_fit_sums` of the data, then :func:`circle_fit_solve`.
 
+    ``elliptic``: the sections' second harmonic in the residual (:func:`circle_fit_sums`).
+
     Returns the corrections as 3-D vectors, (K, 3).
     """
-    S, R = circle_fit_sums(s, local, w, len(centers), rscale)
+    S, R = circle_fit_sums(s, local, w, len(centers), rscale, elliptic=elliptic)
     return circle_fit_solve(axis_frames_nodes, centers, S, R, lam, rscale, pin_ends)
 
 

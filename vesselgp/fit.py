@@ -63,6 +63,7 @@ from .mesh import select_ends
 from .mesh._ends_format import format_point
 from .mesh.scale import scale_of
 from .mesh.geodesic import GeodesicDistances
+from .sections import conic_residual, section_shape
 from .taper import taper_step
 from .wall_circles import wall_circles
 from .prepared import CheckedMesh, checked_mesh, prepared_mesh  # noqa: F401 (vesselgp.fit.checked_mesh)
@@ -582,8 +583,9 @@ def _answered(gc, it, data, checking, given, *, L0, lam, mu, max_iter):
     on the defaults) fitted once more without Eq. 2's pull where it pulls hard (:func:`_free_of_pull`), then
     judged against its wall's own centres (:func:`_on_its_wall`), and a pull still over ``GC_PULL_WARN`` radii
     named in a WARNING (:func:`_warn_pull`)."""
-    if given is not None:
-        gc, it = _free_of_pull(gc, it, data, checking, L0=L0, lam=lam, mu=mu, max_iter=max_iter)
+    if given is not None or it.elliptic:
+        gc, it = _free_of_pull(gc, it, data, checking, L0=L0, lam=lam, mu=mu, max_iter=max_iter,
+                               limit=tol.GC_ELLIPTIC_PULL if it.elliptic else tol.GC_PULL_WARN)
     gc = _on_its_wall(gc, it, data, checking[:4], L0=L0, lam=lam, mu=mu, max_iter=max_iter)
     if given is not None:
         _warn_pull(gc, it, checking[3], given)
@@ -725,33 +727,38 @@ def _eq2_pull(gc, it, rscale):
     return gc.final_lam * _second_difference_pull(gc.centers, (True, True), rscale)
 
 
-def _free_of_pull(gc, it, data, checking, *, L0, lam, mu, max_iter):
-    """A fit on the caller's nodes or weight whose Eq. 2 pull exceeds ``GC_PULL_WARN`` radii (:func:`_eq2_pull`),
-    fitted once more from its converged state with Eq. 2's weight on the step only (``pull=False``): kept, with
-    the iterations of both, where that converges and passes the checks (logged at INFO); else ``gc``, ``it``.
+def _free_of_pull(gc, it, data, checking, *, L0, lam, mu, max_iter, limit):
+    """A fit whose Eq. 2 pull exceeds ``limit`` radii (:func:`_eq2_pull`), fitted once more from its converged
+    state with Eq. 2's weight on the step only (``pull=False``): kept, with the iterations of both, where that
+    converges and passes the checks (logged at INFO); else ``gc``, ``it``. Two fits take it: one on the caller's
+    nodes or weight (``limit`` ``GC_PULL_WARN``) and one of an elliptic wall (``GC_ELLIPTIC_PULL``).
 
     Eq. 2's pull grows with the fourth power of the node spacing: the 2.5:1 flattened vein swept along the real
     coronary's line, on 58 nodes given (the default's half), read 0.068 radii and ran 2.6 % r mean and 13.9 % r
-    worst off its exact line, silently; fitted once more without the pull, 0.08 / 0.75 (issue #48)."""
+    worst off its exact line, silently; fitted once more without the pull, 0.08 / 0.75 (issue #48). An ellipse's
+    section holds its centre across its minor axis only as firmly as ``b^2`` (its circle fit's normal equations):
+    the same pull moves it farther. The same vein on the default nodes, its sections' second harmonic in the fit
+    (:mod:`vesselgp.sections`), read 0.060 % r mean and 0.95 worst with the pull, 0.003 / 0.065 without."""
     V, sub, _, end_region, area, _, normal = data
     rscale = checking[3]
     pull = _eq2_pull(gc, it, rscale)
-    if not it.converged or pull <= tol.GC_PULL_WARN:
+    if not it.converged or pull <= limit:
         return gc, it
     free = fixed_point(it.nodes, it.s, V[sub], area[sub], end_region[sub], rscale, L0, lam=lam, mu=mu,
                        max_iter=max_iter, initial_normal=normal, pull=False)
     if not free.converged:
-        log.info("the axis on the given nodes, fitted again without Eq. 2's pull, did not converge; kept as fitted")
+        log.info("the axis, fitted again without Eq. 2's pull, did not converge; kept as fitted")
         return gc, it
+    free = replace(free, count=it.count + free.count)  # the cylinder reports the iterations of both
     try:
         cyl = _checked_state(free, data, checking, lam=lam, mu=mu)
     except NotTubularError as err:
-        log.info("the axis on the given nodes, fitted again without Eq. 2's pull, was refused (%s); kept as fitted",
+        log.info("the axis, fitted again without Eq. 2's pull, was refused (%s); kept as fitted",
                  str(err).split(";")[0])
         return gc, it
-    log.info("Eq. 2's weight held the axis on the given nodes about %.2g radii off its wall's fixed point; fitted "
+    log.info("Eq. 2's weight held the axis about %.2g radii off its wall's fixed point; fitted "
              "again with the weight on the step only", pull)
-    return cyl, replace(free, count=it.count + free.count)
+    return cyl, free
 
 
 def _warn_pull(gc, it, rscale, given):
@@ -1233,6 +1240,7 @@ class _Iteration:
     lam: float | None = None  # Eq. 2's weight of its last circle fit (data_lambda's on the polish)
     sparse: int | None = None  # its data vertices, when the polish kept lam only for too few of them per node
     free: bool = False  # its fit put Eq. 2's weight on the step only (pull=False; set by fixed_points): no pull
+    elliptic: bool | None = None  # its wall's sections are elliptic (vesselgp.sections; read on its first iteration)
 
 
 class _ProblemStack:
@@ -1280,7 +1288,11 @@ def _iterate(stack, its, windows, lam, mu, stop_singular=False, polish=None):
                                axes[b].length if p.rescue else None)
         _taper_free_ends(w[r], s_raw[r], len(it.nodes) - 1, p.pin)
         inside.append(ins)
-    circle = circle_fit_sums(s, local, w, stack.K, stack.rscale, stack.rowoff, stack.total)
+    its = [it if it.elliptic is not None else replace(
+        it, elliptic=section_shape(s[r], local[r], w[r], len(it.nodes)).elliptic) for it, r in zip(its, stack.slices)]
+    elliptic = [it.elliptic for it in its]
+    rows = elliptic[0] if len(its) == 1 else np.repeat(elliptic, stack.counts)
+    circle = circle_fit_sums(s, local, w, stack.K, stack.rscale, stack.rowoff, stack.total, elliptic=rows)
     radius = _radius_sums(s, np.hypot(local[:, 1], local[:, 2]), w, stack.K, stack.rowoff, stack.total)
     out = []
     how = "none" if stop_singular else "raise"
@@ -1288,7 +1300,7 @@ def _iterate(stack, its, windows, lam, mu, stop_singular=False, polish=None):
         K, o = len(it.nodes), int(stack.nodeoff[b])
         lam_b = lam
         if polish is not None and polish[b]:
-            rel = _rel_residual(s[r], local[r], w[r], it.radii)
+            rel = (conic_residual if it.elliptic else _rel_residual)(s[r], local[r], w[r], it.radii)
             lam_b = data_lambda(lam, rel, K)
             if lam_b >= lam:  # the converged axis is the polished one: nothing to redo
                 out.append(replace(it, lam=lam, sparse=sparse_clean_wall(rel, K)))
@@ -1418,7 +1430,8 @@ def _advance(it, axis, corr, radii, s, w, jac, inside, rscale):
     # geometrically) the next move, predicted as step^2 / previous step, would
     predicted = step * step / it.step if frozen and step < it.step else step
     return _Iteration(_resample_arclength(nodes, K), s_next, radii, it.count + 1,
-                      min(step, predicted) < tol.GC_CONVERGENCE * rscale, rejected, kept, step, axis)
+                      min(step, predicted) < tol.GC_CONVERGENCE * rscale, rejected, kept, step, axis,
+                      elliptic=it.elliptic)
 
 
 def cylinder_from_axis(axis, V, s_raw, end_region, area, it, mu, lam, end_ids, rescue=False):

@@ -71,6 +71,23 @@ GC_MU = 1e-1
 GC_LAMBDA_SCATTER = 0.01
 GC_LAMBDA_VERTICES = 20
 GC_LAMBDA_FLOOR = 0.05
+#: A wall whose sections are ellipses about the first axis (vesselgp.sections.section_shape) is fitted with their
+#: second harmonic in Eq. 2's circle fit (issue #48's flattened vein): its median amplitude over the segments,
+#: (a^2 - b^2) / (a^2 + b^2) for an ellipse of axes a, b, above GC_ELLIPTIC (1.36:1; 2.5:1 reads 0.72; the real
+#: meshes' branches at most 0.22, the pulmonary trunk, not round there) ...
+GC_ELLIPTIC = 0.3
+#: ... where the ellipses explain the wall's departure from its circles: the rms residual about them at most
+#: GC_ELLIPTIC_RESIDUAL of that about the circles. Swept ellipses (8-48 points around, remeshed or not) read
+#: 0.003-0.15; the real meshes' branches 0.14-1.0 (a segmented wall's staircase, noise and mouths are not
+#: elliptic), and the five with an amplitude over 0.15 0.21-0.57.
+GC_ELLIPTIC_RESIDUAL = 0.2
+#: ... counting the segments with at least this many data vertices (the conic has five unknowns).
+GC_ELLIPTIC_MIN_VERTICES = 8
+#: Ridge on a segment's second-harmonic unknowns (relative to their data weight) where they are eliminated from
+#: the circle fit (vesselgp.axis.circle_fit_sums) and in the conics of vesselgp.sections: keeps a segment whose
+#: rows do not determine them solvable. A third of an ellipse's wall leaves its centre and its harmonic nearly
+#: collinear, and the ridge's bias on them grows by about 1e3: at 1e-6 its centre came out 1.5e-3 radii off.
+GC_HARMONIC_RIDGE = 1e-9
 #: A fit (a single vessel, a tree's branch) whose final circle fit lowered Eq. 2's weight to at most
 #: GC_REFINE_LAMBDA of ``lam`` (a clean, densely meshed circular wall: scatter under 0.7 % of the radius) is
 #: iterated again from its axis on nodes GC_REFINE_SPACING times as far apart (vesselgp.fit.refined, issue #48).
@@ -94,6 +111,10 @@ GC_REFINE_MIN_MOVE = 3e-4
 #: refusal's advice, 2.6 % r mean and 13.9 worst off its line, silent; 0.08 / 0.75 now). Default fits read at most
 #: 0.016 (their clean walls are refined, their sparse and refused walls take pull=False already).
 GC_PULL_WARN = 0.03
+#: ... and an elliptic wall's fit (vesselgp.sections) whose pull exceeds this many radii is fitted once more so too:
+#: an ellipse holds its centre across its minor axis only as firmly as b^2, and the pull moves it farther (the
+#: 2.5:1 vein on the default nodes, 0.060 % r mean and 0.95 worst with it, 0.003 / 0.065 without).
+GC_ELLIPTIC_PULL = GC_REFINE_MIN_MOVE
 #: The first axis is sampled this many times per node spacing to measure that move (a chord's sagitta there is
 #: under 1e-5 radii in a bend of curvature x radius 0.7).
 GC_REFINE_MOVE_SAMPLES = 64

@@ -40,6 +40,7 @@ from .curves import frenet, polyline_feet
 from .errors import MismatchError, NotTubularError
 from ._arrays import spread_subset, thinned
 from .axis import Axis, circle_fit_correction, difference_matrix, hat_matrix, local_coords
+from .sections import section_shape
 from .fit import GeneralizedCylinder, fit_generalized_cylinder
 from .rotations import wrap_angle
 
@@ -214,6 +215,9 @@ class TorsionMeter:
         self.s0 = np.where(on, rest.vertex_s, 0.0)  # off the cylinder: no area, no weight in Eq. 6
         self.w = rest.vertex_weight
         self.area = rest.vertex_area
+        # an elliptic wall's corrections carry its sections' second harmonic, as its fit did (vesselgp.sections)
+        sub = self._sub
+        self._elliptic = section_shape(self.s0[sub], rest.vertex_local[sub], self.area[sub], K).elliptic
         self.rscale = rest.mean_radius
         # Eq. 6: (B^T W B + lambda R) m = B^T W p, factorised once.
         B = hat_matrix(self.s0, K)
@@ -244,7 +248,8 @@ class TorsionMeter:
             local, jac = local_coords(axis, Vs, s)
             w = self.area[sub] / np.clip(jac, tol.GC_MIN_STRETCH, None)
             _, frn = axis.at(self._node_s(axis, nodes))
-            corr = circle_fit_correction(frn, nodes, s, local, w, self._lam_corr, self.rscale, pin_ends=False)
+            corr = circle_fit_correction(frn, nodes, s, local, w, self._lam_corr, self.rscale, pin_ends=False,
+                                         elliptic=self._elliptic)
             nodes = nodes + corr
             axis = Axis(nodes)
             steps.append(float(np.linalg.norm(corr, axis=1).max()) / self.rscale)
