@@ -171,8 +171,8 @@ def test_a_flattened_vein_converges_from_its_first_axis():
                                                   (0.5, 0.785, 0.042, 0.71)])
 def test_a_flattened_arc_is_followed_to_its_ends(kr, angle, mid, ends):
     """Arcs of 0.8 pi (curvature x radius 0.3 and 0.5) swept with 2.5:1 ellipses, their major axis out of the bend's
-    plane or across it: with the circle fit the axis turned 30 degrees at an end and was refused (or bent tighter
-    than its radius); now within ``mid`` % r two radii from the ends and ``ends`` % r nearer them (measured)."""
+    plane or across it: with the circle fit each is refused (its axis bends tighter than its radius near an end);
+    now within ``mid`` % r two radii from the ends and ``ends`` % r nearer them (measured)."""
     ves = synthetic_vessel(named_curve("arc", bend_radius=1 / kr, angle=np.pi * 0.8), radius=1.0, ellipticity=0.4,
                            ellipse_angle=angle, n_around=48, remesh=False)
     gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
