@@ -53,7 +53,7 @@ MUTATIONS = {
     ),
     "pull_free_on_defaults": (
         "vesselgp/fit.py",
-        "    if given is not None or it.elliptic:\n        gc, it = _free_of_pull(",
+        "    if given is not None or it.elliptic or clean:\n        gc, it = _free_of_pull(",
         "    if True:\n        gc, it = _free_of_pull(",
         ["tests/test_pull_free.py"],
     ),
@@ -117,6 +117,18 @@ MUTATIONS = {
         "                                         elliptic=self._elliptic)",
         "                                         elliptic=False)",
         ["tests/test_sections.py"],
+    ),
+    "free_clean_never": (
+        "vesselgp/fit.py",
+        "    clean = given is None and it.lam is not None and it.lam <= tol.GC_REFINE_LAMBDA * lam",
+        "    clean = False",
+        ["tests/test_pull_free.py"],
+    ),
+    "free_clean_limit_loose": (
+        "vesselgp/fit.py",
+        "                               limit=tol.GC_FREE_PULL if (it.elliptic or clean) else tol.GC_PULL_WARN)",
+        "                               limit=1.02 * tol.GC_FREE_PULL if (it.elliptic or clean) else tol.GC_PULL_WARN)",
+        ["tests/test_pull_free.py", "tests/test_sections.py"],
     ),
     "elliptic_state_lost": (
         "vesselgp/fit.py",

@@ -26,7 +26,7 @@ _WARNS = "holds the fitted axis about"
 def circle_fit(monkeypatch):
     """These tests hold walls to the paper's circle fit (``GC_ELLIPTIC`` past any amplitude): the 2:1 arch's sections
     otherwise carry their second harmonic (vesselgp.sections) and a fit of it always takes the stage
-    (``GC_ELLIPTIC_PULL``; tests/test_sections.py)."""
+    (``GC_FREE_PULL``; tests/test_sections.py)."""
     monkeypatch.setattr(tol, "GC_ELLIPTIC", np.inf)
 
 
@@ -102,3 +102,30 @@ def test_the_sparse_helix_on_twelve_nodes_is_answered_on_its_line():
     ves = synthetic_vessel("helix", radius=2.5, n_around=8, remesh=False)
     gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F, n_nodes=12)
     assert swept_axis_errors(ves, gc).max() <= 1.5 * 2.0
+
+
+@needs_real(rs.CASES["coronary"].mesh)
+@pytest.mark.parametrize("side", [0.99, 1.01])
+def test_a_clean_walls_pull_is_fitted_away_at_its_edge(side, monkeypatch, caplog):
+    """The real coronary's line swept with exact circles, on the default nodes: its final circle fit lowers Eq. 2's
+    weight and it is refined, and still the pull holds it 0.0081 % r mean and 0.125 worst off its line; fitted once
+    more without the pull, 0.0033 / 0.055 (docs/accuracy.md's table). GC_FREE_PULL at 0.99 / 1.01 of the fit's own
+    pull (read with the stage off): fitted once more just under it (within 1.5x of those figures), not just over."""
+    ves = rs.case_vessel("coronary")
+    monkeypatch.setattr(tol, "GC_FREE_PULL", np.inf)
+    first = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    ends = vesselgp.vessel_ends(ves.V, ves.F)
+    rscale = 0.5 * (ends[first.ends[0]].radius + ends[first.ends[1]].radius)
+    pull = first.final_lam * _second_difference_pull(first.centers, (True, True), rscale)
+    e = swept_axis_errors(ves, first)
+    assert first.final_lam < first.lam and e.mean() > 0.006 and e.max() > 0.1, (e.mean(), e.max())
+    monkeypatch.setattr(tol, "GC_FREE_PULL", side * pull)
+    with caplog.at_level(logging.INFO, logger="vesselgp.fit"):
+        gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    freed = any("fitted again with the weight on the step only" in r.getMessage() for r in caplog.records)
+    assert freed == (side < 1)
+    e = swept_axis_errors(ves, gc)
+    if side < 1:
+        assert e.mean() <= 1.5 * 0.0033 and e.max() <= 1.5 * 0.055 and gc.iterations > first.iterations
+    else:
+        assert np.array_equal(gc.centers, first.centers)
