@@ -53,7 +53,7 @@ MUTATIONS = {
     ),
     "pull_free_on_defaults": (
         "vesselgp/fit.py",
-        "    if given is not None or it.elliptic or clean:\n        gc, it = _free_of_pull(",
+        "    if given is not None or clean:\n        gc, it = _free_of_pull(",
         "    if True:\n        gc, it = _free_of_pull(",
         ["tests/test_pull_free.py"],
     ),
@@ -126,14 +126,14 @@ MUTATIONS = {
     ),
     "free_clean_limit_loose": (
         "vesselgp/fit.py",
-        "                               limit=tol.GC_FREE_PULL if (it.elliptic or clean) else tol.GC_PULL_WARN)",
-        "                               limit=1.02 * tol.GC_FREE_PULL if (it.elliptic or clean) else tol.GC_PULL_WARN)",
+        "                               limit=tol.GC_FREE_PULL if clean else tol.GC_PULL_WARN)",
+        "                               limit=1.02 * tol.GC_FREE_PULL if clean else tol.GC_PULL_WARN)",
         ["tests/test_pull_free.py", "tests/test_sections.py"],
     ),
-    "elliptic_state_lost": (
+    "free_noisy_ellipse": (
         "vesselgp/fit.py",
-        "                      elliptic=it.elliptic)",
-        "                      elliptic=None)",
+        "    clean = given is None and it.lam is not None and it.lam <= tol.GC_REFINE_LAMBDA * lam",
+        "    clean = given is None and (it.elliptic or it.lam is not None and it.lam <= tol.GC_REFINE_LAMBDA * lam)",
         ["tests/test_sections.py"],
     ),
     # --- issue #47 (2026-12-07, night): the rays' face grid looked up by the queries' cells

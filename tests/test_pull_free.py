@@ -67,8 +67,8 @@ def test_the_pull_limit_at_its_edge(elliptic_arch, monkeypatch, side):
 
 
 def test_the_defaults_are_not_touched(elliptic_arch):
-    """On the default nodes nothing changes: the fit with the stage's limit at zero is the same bit for bit (the
-    stage is for the caller's nodes or weight only)."""
+    """On the default nodes GC_PULL_WARN changes nothing: the fit with it at zero is the same bit for bit (it is the
+    limit for the caller's nodes or weight; a default fit of a clean wall has GC_FREE_PULL)."""
     ves = elliptic_arch
     a = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
     with pytest.MonkeyPatch.context() as m:

@@ -167,6 +167,18 @@ def test_a_flattened_vein_converges_from_its_first_axis():
     assert gc.converged and e.mean() <= FACTOR * 0.0029 and e.max() <= FACTOR * 0.0065, (e.mean(), e.max())
 
 
+def test_a_noisy_flattened_vein_keeps_eq2s_pull():
+    """The vein helix remeshed, with normal noise of 1 % r: its sections still read as ellipses (the noise is not
+    elliptic but small), its scatter keeps Eq. 2's weight above the refinement's limit, and its fit is not freed of
+    the pull, which would follow the noise: 0.10 % r mean and 0.26 worst (freed, 0.15 / 0.40; bounds 1.3x)."""
+    ves = synthetic_vessel("helix", radius=1.5, ellipticity=0.4, ellipse_angle=0.3, n_around=48, remesh=True,
+                           noise=0.01, seed=1)
+    gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    e = swept_axis_errors(ves, gc)
+    assert gc.final_lam > tol.GC_REFINE_LAMBDA * gc.lam
+    assert e.mean() <= 1.3 * 0.103 and e.max() <= 1.3 * 0.26, (e.mean(), e.max())
+
+
 @pytest.mark.parametrize("kr, angle, mid, ends", [(0.3, 1.57, 0.032, 0.69), (0.5, 1.57, 0.063, 0.96),
                                                   (0.5, 0.785, 0.042, 0.71)])
 def test_a_flattened_arc_is_followed_to_its_ends(kr, angle, mid, ends):

@@ -111,11 +111,13 @@ GC_REFINE_MIN_MOVE = 3e-4
 #: refusal's advice, 2.6 % r mean and 13.9 worst off its line, silent; 0.08 / 0.75 now). Default fits read at most
 #: 0.016 (their clean walls are refined, their sparse and refused walls take pull=False already).
 GC_PULL_WARN = 0.03
-#: ... and a fit on the default nodes of a clean wall (its final circle fit lowered Eq. 2's weight to at most
-#: GC_REFINE_LAMBDA of lam) or of an elliptic wall (vesselgp.sections) whose pull exceeds this many radii is fitted
+#: ... and a fit on the default nodes of a clean wall, circular or elliptic (vesselgp.sections; its final circle fit
+#: lowered Eq. 2's weight to at most GC_REFINE_LAMBDA of lam), whose pull exceeds this many radii is fitted
 #: once more so too: the lower final weight and the refinement take back only part of the pull (the real coronary's
 #: line swept with circles, 0.0081 % r mean and 0.125 worst with it, 0.0033 / 0.055 without), and an ellipse holds
 #: its centre across its minor axis only as firmly as b^2 (the 2.5:1 vein, 0.060 / 0.95 with it, 0.003 / 0.065).
+#: Not a wall that keeps the weight: the vein helix with normal noise of 1 % r was 0.22 / 0.72 % r off freed, 0.15 /
+#: 0.50 not.
 GC_FREE_PULL = GC_REFINE_MIN_MOVE
 #: The first axis is sampled this many times per node spacing to measure that move (a chord's sagitta there is
 #: under 1e-5 radii in a bend of curvature x radius 0.7).
