@@ -15,6 +15,7 @@ from _data import needs_real, repo_module
 from _reference import swept_axis_errors
 
 import vesselgp
+from vesselgp import fit
 from vesselgp import tolerances as tol
 from vesselgp.fit import _second_difference_pull
 from vesselgp.synthetic import synthetic_vessel
@@ -129,3 +130,25 @@ def test_a_clean_walls_pull_is_fitted_away_at_its_edge(side, monkeypatch, caplog
         assert e.mean() <= 1.5 * 0.0033 and e.max() <= 1.5 * 0.055 and gc.iterations > first.iterations
     else:
         assert np.array_equal(gc.centers, first.centers)
+
+
+@needs_real(rs.CASES["coronary"].mesh)
+def test_a_freed_fit_the_checks_refuse_leaves_the_fit_with_the_pull(monkeypatch, caplog):
+    """Where the checks refuse the fit freed of Eq. 2's pull (simulated: every freed state refused), the fit with the
+    pull is checked and answered instead, bit for bit the fit with the stage off, and the INFO says so."""
+    ves = rs.case_vessel("coronary")
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(tol, "GC_FREE_PULL", np.inf)
+        pulled = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    real = fit._checked_state
+
+    def refusing(state, *a, **k):
+        if state.free:
+            raise vesselgp.NotTubularError("refused for the test")
+        return real(state, *a, **k)
+
+    monkeypatch.setattr(fit, "_checked_state", refusing)
+    with caplog.at_level(logging.INFO, logger="vesselgp.fit"):
+        gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    assert any("freed of Eq. 2's pull was refused" in r.getMessage() for r in caplog.records)
+    assert np.array_equal(gc.centers, pulled.centers) and gc.iterations == pulled.iterations

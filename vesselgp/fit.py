@@ -570,7 +570,7 @@ def fit_generalized_cylinder(
     sub = thinned(len(V), tol.GC_MAX_FIT_VERTICES)
     it = _fitted_axis(nodes, s_prev[sub], V[sub], area[sub], end_region[sub], rscale, L0, lam=lam, mu=mu,
                       max_iter=max_iter, initial_normal=initial_normal, default_nodes=n_nodes is None,
-                      two_ended=n_ends == 2)
+                      two_ended=n_ends == 2, defaults=given is None)
     data = (V, sub, topo, end_region, area, end_ids, initial_normal)
     checking = (pm, e0, e1, rscale, n_ends == 2 and min(end_ids) >= 0)
     gc, it = _checked_or_again(it, (nodes, s_prev[sub], L0), data, checking, lam=lam, mu=mu,
@@ -583,10 +583,8 @@ def _answered(gc, it, data, checking, given, *, L0, lam, mu, max_iter):
     on the defaults) fitted once more without Eq. 2's pull where it pulls hard (:func:`_free_of_pull`), then
     judged against its wall's own centres (:func:`_on_its_wall`), and a pull still over ``GC_PULL_WARN`` radii
     named in a WARNING (:func:`_warn_pull`)."""
-    clean = given is None and it.lam is not None and it.lam <= tol.GC_REFINE_LAMBDA * lam  # data_lambda lowered it
-    if given is not None or clean:
-        gc, it = _free_of_pull(gc, it, data, checking, L0=L0, lam=lam, mu=mu, max_iter=max_iter,
-                               limit=tol.GC_FREE_PULL if clean else tol.GC_PULL_WARN)
+    if given is not None:
+        gc, it = _free_of_pull(gc, it, data, checking, L0=L0, lam=lam, mu=mu, max_iter=max_iter)
     gc = _on_its_wall(gc, it, data, checking[:4], L0=L0, lam=lam, mu=mu, max_iter=max_iter)
     if given is not None:
         _warn_pull(gc, it, checking[3], given)
@@ -594,11 +592,12 @@ def _answered(gc, it, data, checking, given, *, L0, lam, mu, max_iter):
 
 
 def _fitted_axis(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_iter, initial_normal, default_nodes,
-                 two_ended):
+                 two_ended, defaults=False):
     """The fixed point of a single vessel's data from its initial ``nodes``: on the default nodes (``default_nodes``)
     a wall with fewer than ``GC_SPARSE_VERTICES`` data vertices per segment takes :func:`_sparse_fit`; any other
     (or a sparse one that route leaves) one fit, refined on closer nodes when it is clean and has two ends
-    (``two_ended``; :func:`_refined`, issue #48)."""
+    (``two_ended``; :func:`_refined`, issue #48), and on the default nodes and weight (``defaults``) freed of Eq.
+    2's pull when it is clean (:func:`_freed`)."""
     if default_nodes and np.count_nonzero((areas > 0) & ~ends_s) < tol.GC_SPARSE_VERTICES * (len(nodes) - 1):
         it = _sparse_fit(nodes, s0, Vs, areas, ends_s, rscale, length0, lam=lam, mu=mu, max_iter=max_iter,
                          initial_normal=initial_normal)
@@ -608,7 +607,40 @@ def _fitted_axis(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_
                      initial_normal=initial_normal)
     if two_ended and default_nodes:
         it = _refined(it, Vs, areas, ends_s, rscale, length0, lam, mu, max_iter, initial_normal)
+    if defaults:
+        it = _freed(it, Vs, areas, ends_s, rscale, length0, lam=lam, mu=mu, max_iter=max_iter,
+                    initial_normal=initial_normal)
     return it
+
+
+def _freed(it, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_iter, initial_normal):
+    """A clean wall's converged fixed point ``it`` (its final circle fit lowered Eq. 2's weight to at most
+    ``GC_REFINE_LAMBDA`` of ``lam``, :func:`data_lambda`; circular or elliptic) whose Eq. 2 pull exceeds
+    ``GC_FREE_PULL`` radii, fitted once more from there with the weight on the step only (``pull=False``). The freed
+    state, where it converges, counts the iterations of both and keeps ``it`` as ``pulled``: where the checks refuse
+    it, ``it`` is checked instead (:func:`_checked_or_again`). Freed before the checks, the cylinder is built and
+    checked once (after them, the stage took a 200k-vertex arch's fit from 0.67 to 0.91 s).
+
+    The lower final weight and the refinement on closer nodes take back only part of the pull: the real coronary's
+    line swept with exact circles read 0.0081 / 0.125 % r with it, 0.0033 / 0.055 without, and the other dense swept
+    real lines come 1.4-2.5 times closer on average (docs/accuracy.md). An ellipse's section holds its centre across
+    its minor axis only as firmly as ``b^2`` (its circle fit's normal equations): the same pull moves it farther
+    (the 2.5:1 vein on the same line, 0.060 / 0.95 with it, 0.003 / 0.065 without; :mod:`vesselgp.sections`). A
+    noisy wall keeps the pull: freed, it follows its noise (the vein helix with 1 % r of normal noise, 0.22 / 0.72
+    % r off its line freed, 0.15 / 0.50 not)."""
+    if not it.converged or it.lam is None or it.lam > tol.GC_REFINE_LAMBDA * lam:
+        return it
+    pull = it.lam * _second_difference_pull(it.nodes, (True, True), rscale)
+    if pull <= tol.GC_FREE_PULL:
+        return it
+    free = fixed_point(it.nodes, it.s, Vs, areas, ends_s, rscale, length0, lam=lam, mu=mu, max_iter=max_iter,
+                       initial_normal=initial_normal, pull=False)
+    if not free.converged:
+        log.info("the axis, fitted again without Eq. 2's pull, did not converge; kept as fitted")
+        return it
+    log.info("Eq. 2's weight held the axis about %.2g radii off its wall's fixed point; fitted again with the "
+             "weight on the step only", pull)
+    return replace(free, count=it.count + free.count, pulled=it)
 
 
 def _cylinder_of(it, V, sub, topo, end_region, area, mu, lam, end_ids, initial_normal, rescue=False):
@@ -694,6 +726,11 @@ def _checked_or_again(it, start, data, checking, *, lam, mu, max_iter, default_n
     try:
         return checked(it), it
     except NotTubularError as err:
+        if it.pulled is not None:  # freed of Eq. 2's pull and refused: the fit with the pull (_freed)
+            log.info("the axis freed of Eq. 2's pull was refused (%s); the fit with the pull is checked instead",
+                     str(err).split(";")[0])
+            return _checked_or_again(it.pulled, start, data, checking, lam=lam, mu=mu, max_iter=max_iter,
+                                     default_nodes=default_nodes)
         if it.converged or not default_nodes:
             raise
         nodes, s0, length0 = start
@@ -728,28 +765,19 @@ def _eq2_pull(gc, it, rscale):
     return gc.final_lam * _second_difference_pull(gc.centers, (True, True), rscale)
 
 
-def _free_of_pull(gc, it, data, checking, *, L0, lam, mu, max_iter, limit):
-    """A fit whose Eq. 2 pull exceeds ``limit`` radii (:func:`_eq2_pull`), fitted once more from its converged
-    state with Eq. 2's weight on the step only (``pull=False``): kept, with the iterations of both, where that
-    converges and passes the checks (logged at INFO); else ``gc``, ``it``. Three fits take it: one on the caller's
-    nodes or weight (``limit`` ``GC_PULL_WARN``), and one on the default nodes of a clean wall, circular or
-    elliptic (its final circle fit lowered Eq. 2's weight, :func:`data_lambda`; ``GC_FREE_PULL``). A noisy wall
-    keeps the pull: freed, it follows its noise (the vein helix with 1 % r of normal noise, 0.22 / 0.72 % r off
-    its line freed, 0.15 / 0.50 not).
+def _free_of_pull(gc, it, data, checking, *, L0, lam, mu, max_iter):
+    """A fit on the caller's nodes or weight whose Eq. 2 pull exceeds ``GC_PULL_WARN`` radii (:func:`_eq2_pull`),
+    fitted once more from its converged state with Eq. 2's weight on the step only (``pull=False``): kept, with
+    the iterations of both, where that converges and passes the checks (logged at INFO); else ``gc``, ``it``.
+    (A clean wall's fit on the defaults is freed before it is checked: :func:`_freed`.)
 
     Eq. 2's pull grows with the fourth power of the node spacing: the 2.5:1 flattened vein swept along the real
     coronary's line, on 58 nodes given (the default's half), read 0.068 radii and ran 2.6 % r mean and 13.9 % r
-    worst off its exact line, silently; fitted once more without the pull, 0.08 / 0.75 (issue #48). An ellipse's
-    section holds its centre across its minor axis only as firmly as ``b^2`` (its circle fit's normal equations):
-    the same pull moves it farther. The same vein on the default nodes, its sections' second harmonic in the fit
-    (:mod:`vesselgp.sections`), read 0.060 % r mean and 0.95 worst with the pull, 0.003 / 0.065 without. On a clean
-    circular wall the final circle fit with the lower weight and the refinement on closer nodes take back only
-    part of the pull: the real coronary's line swept with exact circles read 0.0081 / 0.125 % r, 0.0033 / 0.055
-    without it, and the other dense swept real lines 1.4-2.5 times closer on average (docs/accuracy.md)."""
+    worst off its exact line, silently; fitted once more without the pull, 0.08 / 0.75 (issue #48)."""
     V, sub, _, end_region, area, _, normal = data
     rscale = checking[3]
     pull = _eq2_pull(gc, it, rscale)
-    if not it.converged or pull <= limit:
+    if not it.converged or pull <= tol.GC_PULL_WARN:
         return gc, it
     free = fixed_point(it.nodes, it.s, V[sub], area[sub], end_region[sub], rscale, L0, lam=lam, mu=mu,
                        max_iter=max_iter, initial_normal=normal, pull=False)
@@ -1248,6 +1276,7 @@ class _Iteration:
     sparse: int | None = None  # its data vertices, when the polish kept lam only for too few of them per node
     free: bool = False  # its fit put Eq. 2's weight on the step only (pull=False; set by fixed_points): no pull
     elliptic: bool | None = None  # its wall's sections are elliptic (vesselgp.sections; read on its first iteration)
+    pulled: "_Iteration | None" = None  # the fit with Eq. 2's pull this one was freed of (_freed)
 
 
 class _ProblemStack:
