@@ -96,14 +96,14 @@ MUTATIONS = {
     ),
     "elliptic_share_circle": (
         "vesselgp/sections.py",
-        "    _, e_circle, _ = _segment_conics(j, x, y, ww, K, centred=True, harmonic=False)",
-        "    _, e_circle, _ = _segment_conics(j, x, y, ww, K, centred=False, harmonic=False)",
+        "    return (coef, e, count, residual(n - 2)[1]) if circle else (coef, e, count)",
+        "    return (coef, e, count, residual(1)[1]) if circle else (coef, e, count)",
         ["tests/test_sections.py"],
     ),
     "elliptic_amplitude_uncentred": (
         "vesselgp/sections.py",
-        "    coef, e_conic, count = _segment_conics(j, x, y, ww, K, centred=True)",
-        "    coef, e_conic, count = _segment_conics(j, x, y, ww, K, centred=False)\n    coef = np.c_[coef[:, :1], coef]",
+        "    coef, e_conic, count, e_circle = _segment_conics(j, x, y, ww, K, centred=True, circle=True)",
+        "    coef, e_conic, count, e_circle = _segment_conics(j, x, y, ww, K, centred=False, circle=True)\n    coef = np.c_[coef[:, :1], coef]",
         ["tests/test_sections.py"],
     ),
     "elliptic_scatter_circles": (

@@ -634,7 +634,7 @@ def _freed(it, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_iter, initial
     if pull <= tol.GC_FREE_PULL:
         return it
     free = fixed_point(it.nodes, it.s, Vs, areas, ends_s, rscale, length0, lam=lam, mu=mu, max_iter=max_iter,
-                       initial_normal=initial_normal, pull=False)
+                       initial_normal=initial_normal, pull=False, elliptic=it.elliptic, warm=True)
     if not free.converged:
         log.info("the axis, fitted again without Eq. 2's pull, did not converge; kept as fitted")
         return it
@@ -954,7 +954,8 @@ def refined(problems, states, *, lam, mu, max_iter, singular="raise", resample=T
     out = list(states)
     if not todo:
         return out
-    fine_problems = [replace(problems[b], nodes=resample_arclength(states[b].nodes, K2), s0=states[b].s)
+    fine_problems = [replace(problems[b], nodes=resample_arclength(states[b].nodes, K2), s0=states[b].s,
+                             elliptic=states[b].elliptic)
                      for b, K2 in zip(todo, counts)]
     fines = fixed_points(fine_problems, lam=lam, mu=mu, max_iter=max_iter, singular=singular,
                          growing=tol.GC_REFINE_GROWING)
@@ -1146,6 +1147,12 @@ class FitProblem:
     pull : bool
         Whether Eq. 2's weight pulls the axis towards its chord (the paper's term), or only smooths and damps
         each step (``pull=False``, :func:`vesselgp.axis.circle_fit_solve`): a sparse wall's second fit.
+    elliptic : bool, optional
+        Whether its wall's sections are elliptic (:mod:`vesselgp.sections`); None reads it on the first
+        iteration. A fit from a converged state on the same wall passes the state's.
+    warm : bool
+        Whether ``s0`` is the data's projection on ``nodes`` already (a converged state's, fitted again from its
+        own nodes): the first projection is then Newton's from ``s0``, not a search of a window about it.
     """
 
     nodes: np.ndarray
@@ -1160,20 +1167,23 @@ class FitProblem:
     mirror: tuple = (False, False)
     rescue: bool = False
     pull: bool = True
+    elliptic: bool | None = None
+    warm: bool = False
 
 
 def fixed_point(nodes, s0, Vs, areas, ends_s, rscale, length0, *, lam, mu, max_iter, initial_normal=None,
-                what="generalized-cylinder fit", growing=None, rescue=False, pull=True):
+                what="generalized-cylinder fit", growing=None, rescue=False, pull=True, elliptic=None, warm=False):
     """Iterate Eq. 3 and Eq. 5 (projection, circle-fit correction, radius) to their fixed point.
 
-    :func:`fixed_points` of the one :class:`FitProblem` these arguments describe (its
-    attributes, ``rescue`` and ``pull`` among them; ``lam``, ``mu``, ``max_iter``, ``what`` and ``growing`` as there).
+    :func:`fixed_points` of the one :class:`FitProblem` these arguments describe (its attributes, ``rescue``,
+    ``pull``, ``elliptic`` and ``warm`` among them; ``lam``, ``mu``, ``max_iter``, ``what`` and ``growing`` as there).
 
     Returns
     -------
     _Iteration
     """
-    problem = FitProblem(nodes, s0, Vs, areas, ends_s, rscale, length0, initial_normal, rescue=rescue, pull=pull)
+    problem = FitProblem(nodes, s0, Vs, areas, ends_s, rscale, length0, initial_normal, rescue=rescue, pull=pull,
+                         elliptic=elliptic, warm=warm)
     return fixed_points([problem], lam=lam, mu=mu, max_iter=max_iter, what=what, growing=growing)[0]
 
 
@@ -1221,8 +1231,9 @@ def fixed_points(problems, *, lam, mu, max_iter, what="generalized-cylinder fit"
         the iteration then contracting geometrically), fell below ``tolerances.GC_CONVERGENCE``
         radii.
     """
-    states = [_Iteration(p.nodes, p.s0, None, 0, False) for p in problems]
-    windows = [4.0 / (len(p.nodes) - 1) + 2.0 * p.rscale / p.length0 for p in problems]
+    states = [_Iteration(p.nodes, p.s0, None, 0, False, elliptic=p.elliptic) for p in problems]
+    windows = None if all(p.warm for p in problems) else [
+        4.0 / (len(p.nodes) - 1) + 2.0 * p.rscale / p.length0 for p in problems]
     running = list(range(len(problems)))
     stack = None
     polishing, polished = set(), set()

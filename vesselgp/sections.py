@@ -30,11 +30,12 @@ from .axis import hat
 __all__ = ["SectionShape", "section_shape", "conic_residual"]
 
 
-def _segment_conics(j, x, y, w, K, centred, harmonic=True):
-    """Each segment's weighted algebraic conic ``q = m (+ a x + b y) (+ e_1 (x^2 - y^2) + e_2 (2 x y))`` of the
+def _segment_conics(j, x, y, w, K, centred, circle=False):
+    """Each segment's weighted algebraic conic ``q = m (+ a x + b y) + e_1 (x^2 - y^2) + e_2 (2 x y)`` of the
     offsets ``(x, y)`` (``q = x^2 + y^2``) of rows in segments ``j`` of ``K`` nodes: the coefficients (K - 1, n),
-    the residual of ``q`` at each row, and the segments' row counts."""
-    cols = (np.ones_like(x),) + ((x, y) if centred else ()) + ((x * x - y * y, 2.0 * x * y) if harmonic else ())
+    the residual of ``q`` at each row and the segments' row counts; with ``circle``, also the residual of the
+    segments' circles (the leading columns alone, from the same sums)."""
+    cols = (np.ones_like(x),) + ((x, y) if centred else ()) + (x * x - y * y, 2.0 * x * y)
     q = x * x + y * y
     n = len(cols)
     M, rhs = np.empty((K - 1, n, n)), np.empty((K - 1, n))
@@ -44,8 +45,14 @@ def _segment_conics(j, x, y, w, K, centred, harmonic=True):
             M[:, u, v] = M[:, v, u] = np.bincount(j, w * cols[u] * cols[v], K - 1)
     # a segment with no data, or a ring that does not determine its conic, keeps a defined solve
     M += tol.GC_HARMONIC_RIDGE * np.maximum(M[:, :1, :1], np.finfo(float).tiny) * np.eye(n)
-    coef = np.linalg.solve(M, rhs[..., None])[..., 0]
-    return coef, q - sum(coef[j, u] * cols[u] for u in range(n)), np.bincount(j, None, K - 1)
+
+    def residual(k):
+        coef = np.linalg.solve(M[:, :k, :k], rhs[:, :k, None])[..., 0]
+        return coef, q - sum(coef[j, u] * cols[u] for u in range(k))
+
+    coef, e = residual(n)
+    count = np.bincount(j, None, K - 1)
+    return (coef, e, count, residual(n - 2)[1]) if circle else (coef, e, count)
 
 
 @dataclass(frozen=True)
@@ -116,11 +123,10 @@ def section_shape(s, local, w, K):
     rms = np.sqrt(np.bincount(j, ww * (x * x + y * y), K - 1) / np.maximum(n, np.finfo(float).tiny))
     scale = np.where(rms > 0, rms, 1.0)[j]
     x, y = x / scale, y / scale
-    coef, e_conic, count = _segment_conics(j, x, y, ww, K, centred=True)
+    coef, e_conic, count, e_circle = _segment_conics(j, x, y, ww, K, centred=True, circle=True)
     ok = count >= tol.GC_ELLIPTIC_MIN_VERTICES
     if not ok.any():
         return SectionShape(0.0, 1.0)
-    _, e_circle, _ = _segment_conics(j, x, y, ww, K, centred=True, harmonic=False)
     rows = ok[j]
     amp, wt = np.hypot(coef[ok, 3], coef[ok, 4]), n[ok]
     o = np.argsort(amp)
