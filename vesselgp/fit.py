@@ -1335,8 +1335,7 @@ def _iterate(stack, its, windows, lam, mu, stop_singular=False, polish=None):
                                axes[b].length if p.rescue else None)
         _taper_free_ends(w[r], s_raw[r], len(it.nodes) - 1, p.pin)
         inside.append(ins)
-    its = [it if it.elliptic is not None else replace(
-        it, elliptic=section_shape(s[r], local[r], w[r], len(it.nodes)).elliptic) for it, r in zip(its, stack.slices)]
+    its = [it if it.elliptic is not None else _read_sections(it, s[r], local[r], w[r]) for it, r in zip(its, stack.slices)]
     elliptic = [it.elliptic for it in its]
     rows = elliptic[0] if len(its) == 1 else np.repeat(elliptic, stack.counts)
     circle = circle_fit_sums(s, local, w, stack.K, stack.rscale, stack.rowoff, stack.total, elliptic=rows)
@@ -1363,6 +1362,17 @@ def _iterate(stack, its, windows, lam, mu, stop_singular=False, polish=None):
             corr = taper_step(corr, radii, axes[b].node_frames(), axes[b].length)
         out.append(replace(_advance(it, axes[b], corr, radii, s[r], w[r], jac[r], inside[b], p.rscale), lam=lam_b))
     return out
+
+
+def _read_sections(it, s, local, w):
+    """State ``it`` with its wall's sections read at its first axis (:func:`vesselgp.sections.section_shape`); an
+    elliptic wall is logged at INFO (its fit carries their second harmonic)."""
+    shape = section_shape(s, local, w, len(it.nodes))
+    if shape.elliptic:
+        log.info("the wall's sections are ellipses (second harmonic %.2g, about (a^2 - b^2) / (a^2 + b^2); %.2g of "
+                 "its departure from circles left about them): fitted about their centres", shape.amplitude,
+                 shape.explained)
+    return replace(it, elliptic=shape.elliptic)
 
 
 def data_lambda(lam, rel_residual, K):
