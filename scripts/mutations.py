@@ -126,8 +126,8 @@ MUTATIONS = {
     ),
     "free_clean_limit_loose": (
         "vesselgp/fit.py",
-        "    if pull <= tol.GC_FREE_PULL:",
-        "    if pull <= 1.02 * tol.GC_FREE_PULL:",
+        "    return _pull_of(problem, it) > tol.GC_FREE_PULL",
+        "    return _pull_of(problem, it) > 1.02 * tol.GC_FREE_PULL",
         ["tests/test_pull_free.py", "tests/test_sections.py"],
     ),
     "free_fallback_lost": (
@@ -136,10 +136,16 @@ MUTATIONS = {
         "        if False:  # freed",
         ["tests/test_pull_free.py"],
     ),
+    "free_tree_never": (
+        "vesselgp/tree.py",
+        "    fits = freed(problems, fits, lam=lam, mu=mu, max_iter=max_iter, singular=\"stop\")\n",
+        "",
+        ["tests/test_real_shapes.py"],
+    ),
     "free_noisy_ellipse": (
         "vesselgp/fit.py",
-        "    if not it.converged or it.lam is None or it.lam > tol.GC_REFINE_LAMBDA * lam:\n        return it\n    pull = it.lam",
-        "    if not it.converged or it.lam is None or (it.lam > tol.GC_REFINE_LAMBDA * lam and not it.elliptic):\n        return it\n    pull = it.lam",
+        "    if not it.converged or it.singular or it.lam is None or it.lam > tol.GC_REFINE_LAMBDA * lam:",
+        "    if not it.converged or it.singular or it.lam is None or (it.lam > tol.GC_REFINE_LAMBDA * lam and not it.elliptic):",
         ["tests/test_sections.py"],
     ),
     # --- issue #47 (2026-12-07, night): the rays' face grid looked up by the queries' cells

@@ -12,7 +12,8 @@ generalized cylinders (paper Section 2.1-2.2, applied branch by branch):
    starts from the branch's centre line and is iterated exactly as for a single
    vessel (circle-fit centres, robust reweighting that drops the junction bulges),
    and a clean, densely meshed branch is iterated again on closer nodes, which it
-   keeps (:func:`vesselgp.fit.refined`, issue #48). The shared trunk is fitted
+   keeps (:func:`vesselgp.fit.refined`, issue #48), and then with Eq. 2's weight
+   on the step only (:func:`vesselgp.fit.freed`). The shared trunk is fitted
    once, not once per path.
 3. **Junctions.** A junction is the point closest, in least squares, to the
    lines continuing the parent's distal end and the children's proximal ends
@@ -54,7 +55,7 @@ from .checks import FitChecks, fit_checks
 from .curves import chord_length, resample_arclength
 from .errors import EndsError, NotTubularError
 from .fit import (check_cylinder_bend, cylinder_from_axis, cylinder_sharp_bends,
-                  FitProblem, fit_generalized_cylinder, fixed_points, refined)
+                  FitProblem, fit_generalized_cylinder, fixed_points, freed, refined)
 from .inside import check_axis_inside
 from ._per_vertex import on_rows, rows_of
 from .medial_zones import medial_zones
@@ -520,6 +521,8 @@ def fit_vessel_tree(V, F=None, root=None, *, ends=None, lam=None, mu=None, max_i
                         singular="stop", unsettled=(tol.TREE_UNSETTLED, tol.TREE_UNSETTLED_ITERATIONS))
     # a clean branch's fixed point again on closer nodes, which it keeps (issue #48; vesselgp.fit.refined)
     fits = refined(problems, fits, lam=lam, mu=mu, max_iter=max_iter, singular="stop", resample=False)
+    # ... and a clean branch's fixed point freed of Eq. 2's pull (vesselgp.fit.freed)
+    fits = freed(problems, fits, lam=lam, mu=mu, max_iter=max_iter, singular="stop")
     how = [_branch_fit(it, p) for it, p in zip(fits, problems)]
     firsts = [_raw_branch(b, idx, it, p, br, h) for b, (idx, it, p, h) in enumerate(zip(ids, fits, problems, how))]
     raw, medial = [r for r, _ in firsts], [m for _, m in firsts]
