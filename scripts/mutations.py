@@ -88,6 +88,12 @@ MUTATIONS = {
         "        return self.amplitude > 1.02 * tol.GC_ELLIPTIC and",
         ["tests/test_sections.py"],
     ),
+    "elliptic_min_vertices": (
+        "vesselgp/sections.py",
+        "    ok = count >= tol.GC_ELLIPTIC_MIN_VERTICES",
+        "    ok = count >= tol.GC_ELLIPTIC_MIN_VERTICES - 1",
+        ["tests/test_sections.py"],
+    ),
     "elliptic_share_unchecked": (
         "vesselgp/sections.py",
         " and self.explained <= tol.GC_ELLIPTIC_RESIDUAL",

@@ -254,3 +254,26 @@ def imposed_twist_errors(prof, gc, truth, alpha, dalpha):
     s = np.linspace(0, 1, 20001)
     e_true = float(np.trapezoid(dalpha(s) ** 2, s))
     return err, (100.0 * (prof.energy - e_true) / e_true if e_true > 0 else None)
+
+
+def free_stage_at_edge(ves, side, monkeypatch, caplog):
+    """A swept vessel's default fit with ``GC_FREE_PULL`` (the limit of Eq. 2's pull above which a clean wall's fit
+    is freed of it, vesselgp.fit.freed) at ``side`` times that fit's own pull, read with the stage off: the fit
+    with the stage off, the one at the edge, whether the latter was freed (its INFO) and both fits'
+    ``swept_axis_errors``."""
+    import logging
+
+    import vesselgp
+    from vesselgp import tolerances as tol
+    from vesselgp.fit import _second_difference_pull
+
+    monkeypatch.setattr(tol, "GC_FREE_PULL", np.inf)
+    first = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    ends = vesselgp.vessel_ends(ves.V, ves.F)
+    rscale = 0.5 * (ends[first.ends[0]].radius + ends[first.ends[1]].radius)
+    pull = first.final_lam * _second_difference_pull(first.centers, (True, True), rscale)
+    monkeypatch.setattr(tol, "GC_FREE_PULL", side * pull)
+    with caplog.at_level(logging.INFO, logger="vesselgp.fit"):
+        gc = vesselgp.fit_generalized_cylinder(ves.V, ves.F)
+    freed = any("fitted again with the weight on the step only" in r.getMessage() for r in caplog.records)
+    return first, gc, freed, swept_axis_errors(ves, first), swept_axis_errors(ves, gc)
